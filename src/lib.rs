@@ -7,6 +7,7 @@
 #![deny(missing_docs)]
 
 pub mod geometry;
+pub mod info;
 pub mod io;
 pub mod raster;
 pub mod scene;
