@@ -571,3 +571,67 @@ proptest! {
         }
     }
 }
+
+/// Rough throughput of the readers and writers on a 200k-point model (not a benchmark; run
+/// with `cargo test --lib io::colmap::tests::throughput -- --ignored --nocapture`).
+#[test]
+#[ignore = "timing, prints numbers"]
+fn throughput() {
+    let n_images = 50u32;
+    let n_points = 200_000u64;
+    let mut m = ColmapModel {
+        cameras: vec![ColmapCamera {
+            camera_id: 1,
+            camera: Camera::pinhole(1000, 800, 900.0, 900.0, 500.0, 400.0),
+        }],
+        ..Default::default()
+    };
+    for i in 0..n_images {
+        m.images.push(ColmapImage {
+            image_id: i + 1,
+            qvec: [1.0, 0.0, 0.0, 0.0],
+            tvec: [i as f64 * 0.1, 0.2, 0.3],
+            camera_id: 1,
+            name: format!("img_{i:04}.jpg"),
+            points2d: Vec::new(),
+        });
+    }
+    for p in 0..n_points {
+        let mut track = Vec::new();
+        for k in 0..4u64 {
+            let im = &mut m.images[((p * 7 + k * 13) % n_images as u64) as usize];
+            track.push(TrackElement {
+                image_id: im.image_id,
+                point2d_idx: im.points2d.len() as u32,
+            });
+            im.points2d.push(Point2D {
+                x: p as f64 * 0.001,
+                y: 1.0 / (p + 1) as f64,
+                point3d_id: Some(p + 1),
+            });
+        }
+        m.points3d.push(ColmapPoint3D {
+            point3d_id: p + 1,
+            xyz: [p as f64 * 1e-3, (p as f64).sqrt(), 1.0 / (p + 1) as f64],
+            rgb: [1, 2, 3],
+            error: 0.5,
+            track,
+        });
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let t = std::time::Instant::now();
+    write_model_bin(dir.path(), &m).unwrap();
+    let wb = t.elapsed();
+    let t = std::time::Instant::now();
+    let back = read_model_bin(dir.path()).unwrap();
+    let rb = t.elapsed();
+    assert_eq!(back, m);
+    let t = std::time::Instant::now();
+    write_model_text(dir.path(), &m).unwrap();
+    let wt = t.elapsed();
+    let t = std::time::Instant::now();
+    let back = read_model_text(dir.path()).unwrap();
+    let rt = t.elapsed();
+    assert_eq!(back, m);
+    println!("{n_points} points, {} observations: bin write {wb:?} read {rb:?}; text write {wt:?} read {rt:?}", n_points * 4);
+}

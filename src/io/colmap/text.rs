@@ -7,6 +7,7 @@
 //! Floats are written with Rust's shortest round-trip formatting (`{:?}`: `0.1`, `1e-7`), so
 //! text written by planemap reads back bit-exactly; COLMAP's `std::stold` parses it too.
 
+use std::fmt::Write as _;
 use std::io::{BufRead, Write};
 use std::path::PathBuf;
 use std::str::FromStr;
@@ -272,17 +273,18 @@ pub fn write_cameras_text(mut w: impl Write, cameras: &[ColmapCamera]) -> Result
     let mut s = String::new();
     s.push_str("# Camera list with one line of data per camera:\n");
     s.push_str("#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n");
-    s.push_str(&format!("# Number of cameras: {}\n", cameras.len()));
+    let _ = writeln!(s, "# Number of cameras: {}", cameras.len());
     for c in cameras {
-        s.push_str(&format!(
+        let _ = write!(
+            s,
             "{} {} {} {}",
             c.camera_id,
             c.camera.model.name(),
             c.camera.width,
             c.camera.height
-        ));
+        );
         for p in &c.camera.params {
-            s.push_str(&format!(" {p:?}"));
+            let _ = write!(s, " {p:?}");
         }
         s.push('\n');
     }
@@ -310,10 +312,11 @@ pub fn write_images_text(mut w: impl Write, images: &[ColmapImage]) -> Result<()
     s.push_str("# Image list with two lines of data per image:\n");
     s.push_str("#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n");
     s.push_str("#   POINTS2D[] as (X, Y, POINT3D_ID)\n");
-    s.push_str(&format!(
-        "# Number of images: {}, mean observations per image: {mean}\n",
+    let _ = writeln!(
+        s,
+        "# Number of images: {}, mean observations per image: {mean}",
         images.len()
-    ));
+    );
     for im in images {
         if im.name.is_empty() || im.name.chars().any(char::is_whitespace) {
             return Err(ColmapError::Unwritable(format!(
@@ -323,19 +326,19 @@ pub fn write_images_text(mut w: impl Write, images: &[ColmapImage]) -> Result<()
         }
         s.push_str(&im.image_id.to_string());
         for v in im.qvec.iter().chain(&im.tvec) {
-            s.push_str(&format!(" {v:?}"));
+            let _ = write!(s, " {v:?}");
         }
-        s.push_str(&format!(" {} {}\n", im.camera_id, im.name));
+        let _ = writeln!(s, " {} {}", im.camera_id, im.name);
         let mut first = true;
         for p in &im.points2d {
             if !first {
                 s.push(' ');
             }
             first = false;
-            match p.point3d_id {
-                Some(id) => s.push_str(&format!("{:?} {:?} {id}", p.x, p.y)),
-                None => s.push_str(&format!("{:?} {:?} -1", p.x, p.y)),
-            }
+            let _ = match p.point3d_id {
+                Some(id) => write!(s, "{:?} {:?} {id}", p.x, p.y),
+                None => write!(s, "{:?} {:?} -1", p.x, p.y),
+            };
         }
         s.push('\n');
     }
@@ -353,17 +356,19 @@ pub fn write_points3d_text(mut w: impl Write, points: &[ColmapPoint3D]) -> Resul
     let mut s = String::new();
     s.push_str("# 3D point list with one line of data per point:\n");
     s.push_str("#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n");
-    s.push_str(&format!(
-        "# Number of points: {}, mean track length: {mean}\n",
+    let _ = writeln!(
+        s,
+        "# Number of points: {}, mean track length: {mean}",
         points.len()
-    ));
+    );
     for p in points {
-        s.push_str(&format!(
+        let _ = write!(
+            s,
             "{} {:?} {:?} {:?} {} {} {} {:?}",
             p.point3d_id, p.xyz[0], p.xyz[1], p.xyz[2], p.rgb[0], p.rgb[1], p.rgb[2], p.error
-        ));
+        );
         for t in &p.track {
-            s.push_str(&format!(" {} {}", t.image_id, t.point2d_idx));
+            let _ = write!(s, " {} {}", t.image_id, t.point2d_idx);
         }
         s.push('\n');
     }
