@@ -8,7 +8,7 @@ of the same model (cameras.txt, images.txt, points3D.txt) is looked for in TXT_D
 MODEL_DIR itself. The binary model is loaded with pycolmap; the text model is parsed here in
 plain Python (no COLMAP code involved), and the two must agree: same image ids, names and
 camera ids, same point ids and track lengths, and poses (qvec, tvec) and point positions
-equal to 1e-12. Exit status 0 when they agree, 1 with a list of differences otherwise.
+equal to 1e-12; pycolmap must also read the text files to exactly the binary values. Exit status 0 when they agree, 1 with a list of differences otherwise.
 
 Like make_pycolmap_fixture.py, it creates a virtualenv with pycolmap when pycolmap is not
 importable (PYCOLMAP_VENV, default /tmp/planemap-pycolmap-venv).
@@ -121,6 +121,19 @@ def main():
         check(p.track.length() == t["track_length"], f"point {pid} track {p.track.length()} vs {t['track_length']}")
         for a, b in zip(p.xyz, t["xyz"]):
             check(abs(a - b) <= TOL, f"point {pid} xyz {list(p.xyz)} vs {t['xyz']}")
+    # pycolmap must also read our text files, to the same values as our binary files.
+    rec_txt = pycolmap.Reconstruction()
+    rec_txt.read_text(str(txt_dir))
+    for iid in rec.images:
+        a = rec.images[iid]
+        b = rec_txt.images[iid] if iid in rec_txt.images else None
+        if b is None:
+            problems.append(f"image {iid} missing from pycolmap's reading of the text model")
+            continue
+        pa = a.cam_from_world() if callable(a.cam_from_world) else a.cam_from_world
+        pb = b.cam_from_world() if callable(b.cam_from_world) else b.cam_from_world
+        check((pa.matrix() == pb.matrix()).all(), f"image {iid}: text and binary poses differ in pycolmap")
+    check(rec_txt.num_points3D() == rec.num_points3D(), "pycolmap reads different point counts from text and binary")
     if problems:
         print(f"FAIL: {len(problems)} differences", file=sys.stderr)
         for p in problems[:50]:
