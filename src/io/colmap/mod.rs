@@ -337,7 +337,7 @@ impl ColmapModel {
 
     /// Checks the cross-references between the three files: unique ids, every image's camera
     /// exists, every track element names an existing image and a valid 2D point index, and
-    /// every value is finite. `ext` (`"bin"`/`"txt"`) is used to name the files in errors.
+    /// every value is finite. `format` only decides how the files are named in errors.
     pub fn validate(&self, format: ModelFormat) -> Result<(), ColmapError> {
         let ext = format.extension();
         let file = |stem: &str| PathBuf::from(format!("{stem}.{ext}"));
