@@ -204,6 +204,23 @@ fn text_reader_accepts_colmap_style_input() {
 }
 
 #[test]
+fn invalid_utf8_and_crlf_in_text() {
+    let e = read_images_text(&b"# ok\n1 1 0 0 0 0 0 0 1 \xff.png\n\n"[..])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("images.txt") && e.contains("line 2") && e.contains("UTF-8"),
+        "{e}"
+    );
+    let cams = read_cameras_text(&b"# c\r\n1 PINHOLE 4 4 1 2 3 4\r\n"[..]).unwrap();
+    assert_eq!(cams[0].camera.params, vec![1.0, 2.0, 3.0, 4.0]);
+    let ims =
+        read_images_text(&b"1 1 0 0 0 0 0 0 1 a.png\r\n\r\n2 1 0 0 0 0 0 0 1 b.png"[..]).unwrap();
+    assert_eq!(ims.len(), 2);
+    assert!(ims[1].points2d.is_empty());
+}
+
+#[test]
 fn garbled_text_names_line_and_field() {
     let ims = "# header\n3 1 0 0 0 0.1 zz 0.3 1 x.png\n\n";
     let e = read_images_text(ims.as_bytes()).unwrap_err().to_string();
@@ -566,8 +583,12 @@ proptest! {
             let n = f.len();
             f[pos % n] = byte;
         }
-        if let Ok(m) = from_text(&t) {
-            let _ = m.to_scene(None);
+        match from_text(&t) {
+            Ok(m) => {
+                let _ = m.to_scene(None);
+            }
+            // Every text error is located at a line.
+            Err(e) => prop_assert!(e.to_string().contains("line "), "{}", e),
         }
     }
 }

@@ -70,8 +70,25 @@ fn io_err(file: &'static str) -> impl Fn(std::io::Error) -> ColmapError {
 }
 
 /// Reads all lines with their 1-based numbers.
-fn read_lines(r: impl BufRead, file: &'static str) -> Result<Vec<String>, ColmapError> {
-    r.lines().collect::<Result<_, _>>().map_err(io_err(file))
+/// Reads all lines (`\n` or `\r\n` endings); a line that is not UTF-8 is an error naming it.
+fn read_lines(mut r: impl BufRead, file: &'static str) -> Result<Vec<String>, ColmapError> {
+    let mut bytes = Vec::new();
+    r.read_to_end(&mut bytes).map_err(io_err(file))?;
+    let mut lines = Vec::new();
+    let body = bytes.strip_suffix(b"\n").unwrap_or(&bytes);
+    if body.is_empty() && bytes.is_empty() {
+        return Ok(lines);
+    }
+    for (i, raw) in body.split(|&b| b == b'\n').enumerate() {
+        let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
+        let line = std::str::from_utf8(raw).map_err(|e| ColmapError::Invalid {
+            file: PathBuf::from(file),
+            at: Location::Line(i + 1),
+            message: format!("not valid UTF-8 (at byte {} of the line)", e.valid_up_to()),
+        })?;
+        lines.push(line.to_string());
+    }
+    Ok(lines)
 }
 
 fn is_skipped(line: &str) -> bool {
