@@ -248,3 +248,24 @@ fn write_model_for_pycolmap_check() {
     write_model_text(&dir, &model).unwrap();
     println!("wrote {}", dir.display());
 }
+
+#[test]
+fn info_summarises_the_fixture() {
+    use planemap::info::ModelInfo;
+    let exp = expected();
+    let info = ModelInfo::from_dir(&fixture().join("bin"), None).unwrap();
+    let pts = exp["points3D"].as_array().unwrap();
+    let obs: usize = pts
+        .iter()
+        .map(|p| p["track"].as_array().unwrap().len())
+        .sum();
+    assert_eq!(info.num_images, exp["images"].as_array().unwrap().len());
+    assert_eq!(info.num_points, pts.len());
+    assert_eq!(info.num_observations, obs);
+    assert!((info.mean_track_length - obs as f64 / pts.len() as f64).abs() < 1e-12);
+    let mean_err = pts.iter().map(|p| f(&p["error"])).sum::<f64>() / pts.len() as f64;
+    assert!((info.mean_reprojection_error.unwrap() - mean_err).abs() < 1e-12);
+    let text = info.to_string();
+    assert!(text.contains("OPENCV 1024x768"), "{text}");
+    println!("{text}");
+}

@@ -565,9 +565,13 @@ proptest! {
             let n = f.len();
             f.truncate(cut % n);
         }
-        if let Ok(m) = from_bin(&b) {
-            let _ = m.validate(ModelFormat::Binary);
-            let _ = m.to_scene(None);
+        match from_bin(&b) {
+            Ok(m) => {
+                let _ = m.validate(ModelFormat::Binary);
+                let _ = m.to_scene(None);
+            }
+            // Every binary error is located at a byte offset.
+            Err(e) => prop_assert!(e.to_string().contains("byte offset"), "{}", e),
         }
     }
 
