@@ -7,6 +7,7 @@
 #![deny(missing_docs)]
 
 pub mod geometry;
+pub mod info;
 pub mod io;
 pub mod progress;
 pub mod raster;

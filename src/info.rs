@@ -1,0 +1,539 @@
+//! `planemap info`: a summary of a COLMAP sparse model and the problems worth knowing about
+//! before running the pipeline on it.
+
+use std::collections::{HashMap, HashSet};
+use std::fmt;
+use std::fs::File;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+use crate::geometry::CameraModel;
+use crate::io::colmap::{
+    find_model, read_model_bin, read_model_text, ColmapError, ColmapModel, ModelFormat,
+};
+
+/// Errors of model summarising.
+#[derive(Debug, Error)]
+pub enum InfoError {
+    /// The model could not be read.
+    #[error(transparent)]
+    Colmap(#[from] ColmapError),
+}
+
+/// One camera of the model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CameraSummary {
+    /// COLMAP `camera_id`.
+    pub camera_id: u32,
+    /// Camera model.
+    pub model: CameraModel,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Number of images taken with it.
+    pub num_images: usize,
+}
+
+/// Something suspicious about the model (not fatal).
+#[derive(Debug, Clone, PartialEq)]
+pub enum InfoWarning {
+    /// An image listed in the model is not in the images folder.
+    MissingImage {
+        /// The expected path.
+        path: PathBuf,
+    },
+    /// An image file's header could not be read.
+    UnreadableImage {
+        /// The image file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
+    /// An image file's size disagrees with its camera.
+    ImageSizeMismatch {
+        /// The image file.
+        path: PathBuf,
+        /// Size on disk.
+        found: (u32, u32),
+        /// Size its camera says.
+        camera: (u32, u32),
+    },
+    /// Points seen by only one image (not triangulated; they carry zero confidence).
+    SingleViewPoints {
+        /// How many.
+        count: usize,
+    },
+    /// An image that sees no 3D point.
+    ImageWithoutPoints {
+        /// COLMAP `image_id`.
+        image_id: u32,
+        /// Its name.
+        name: String,
+    },
+    /// A camera no image uses.
+    UnusedCamera {
+        /// COLMAP `camera_id`.
+        camera_id: u32,
+    },
+}
+
+impl fmt::Display for InfoWarning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            InfoWarning::MissingImage { path } => {
+                write!(f, "image file missing: {}", path.display())
+            }
+            InfoWarning::UnreadableImage { path, message } => {
+                write!(
+                    f,
+                    "cannot read image header of {}: {message}",
+                    path.display()
+                )
+            }
+            InfoWarning::ImageSizeMismatch {
+                path,
+                found,
+                camera,
+            } => write!(
+                f,
+                "{} is {}x{} but its camera says {}x{}",
+                path.display(),
+                found.0,
+                found.1,
+                camera.0,
+                camera.1
+            ),
+            InfoWarning::SingleViewPoints { count } => {
+                write!(f, "{count} points are seen by only one image")
+            }
+            InfoWarning::ImageWithoutPoints { image_id, name } => {
+                write!(f, "image {image_id} ({name}) sees no 3D points")
+            }
+            InfoWarning::UnusedCamera { camera_id } => {
+                write!(f, "camera {camera_id} is used by no image")
+            }
+        }
+    }
+}
+
+/// Axis-aligned box in world coordinates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoundingBox {
+    /// Minimum corner.
+    pub min: [f64; 3],
+    /// Maximum corner.
+    pub max: [f64; 3],
+}
+
+/// Lower percentile of the robust bounding box.
+pub const ROBUST_BOX_LOW_PERCENTILE: f64 = 2.0;
+/// Upper percentile of the robust bounding box.
+pub const ROBUST_BOX_HIGH_PERCENTILE: f64 = 98.0;
+
+/// Summary of a COLMAP sparse model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelInfo {
+    /// Directory the model files are in (after the `sparse/`, `sparse/0/` search).
+    pub model_dir: PathBuf,
+    /// Binary or text.
+    pub format: ModelFormat,
+    /// Cameras in file order.
+    pub cameras: Vec<CameraSummary>,
+    /// Number of registered images.
+    pub num_images: usize,
+    /// Number of 3D points.
+    pub num_points: usize,
+    /// Number of track elements over all points.
+    pub num_observations: usize,
+    /// Mean number of track elements per point (0 without points).
+    pub mean_track_length: f64,
+    /// Mean reprojection error in pixels over points whose error is known (≥ 0); `None` when
+    /// no point has one.
+    pub mean_reprojection_error: Option<f64>,
+    /// Bounding box of all points; `None` without points.
+    pub bbox: Option<BoundingBox>,
+    /// Per-axis [`ROBUST_BOX_LOW_PERCENTILE`]–[`ROBUST_BOX_HIGH_PERCENTILE`] percentile box,
+    /// insensitive to a few stray points.
+    pub robust_bbox: Option<BoundingBox>,
+    /// Problems found.
+    pub warnings: Vec<InfoWarning>,
+}
+
+/// Width and height from a PNG / JPEG (or other format the `image` crate knows) header,
+/// without decoding the pixels.
+pub fn image_size(path: &Path) -> Result<(u32, u32), String> {
+    let mut head = [0u8; 2];
+    let is_jpeg = File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .map(|_| head == [0xFF, 0xD8])
+        .unwrap_or(false);
+    if is_jpeg {
+        let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+        return jpeg_size(&bytes).ok_or_else(|| "no JPEG frame header found".to_string());
+    }
+    image::image_dimensions(path).map_err(|e| e.to_string())
+}
+
+/// Size from the first SOFn marker of a JPEG stream (the `image` crate is built without its
+/// JPEG decoder here).
+fn jpeg_size(b: &[u8]) -> Option<(u32, u32)> {
+    let mut i = 2;
+    while i + 4 <= b.len() {
+        if b[i] != 0xFF {
+            return None;
+        }
+        let marker = b[i + 1];
+        if marker == 0xFF {
+            i += 1;
+            continue;
+        }
+        // Markers without a length field.
+        if marker == 0x01 || (0xD0..=0xD9).contains(&marker) {
+            i += 2;
+            continue;
+        }
+        let len = usize::from(u16::from_be_bytes([b[i + 2], b[i + 3]]));
+        let is_sof = (0xC0..=0xCF).contains(&marker) && !matches!(marker, 0xC4 | 0xC8 | 0xCC);
+        if is_sof {
+            let s = b.get(i + 4..i + 9)?;
+            let h = u32::from(u16::from_be_bytes([s[1], s[2]]));
+            let w = u32::from(u16::from_be_bytes([s[3], s[4]]));
+            return Some((w, h));
+        }
+        i += 2 + len;
+    }
+    None
+}
+
+/// The `p`-th percentile (0..=100) of sorted values, nearest rank.
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    let idx = ((p / 100.0) * (sorted.len() - 1) as f64).round() as usize;
+    sorted[idx.min(sorted.len() - 1)]
+}
+
+impl ModelInfo {
+    /// Reads the model in `model_dir` (or its `sparse/`, `sparse/0/`) and summarises it;
+    /// with `images_dir`, also checks the image files' presence and header sizes.
+    pub fn from_dir(model_dir: &Path, images_dir: Option<&Path>) -> Result<ModelInfo, InfoError> {
+        let (dir, format) = find_model(model_dir)?;
+        let model = match format {
+            ModelFormat::Binary => read_model_bin(&dir)?,
+            ModelFormat::Text => read_model_text(&dir)?,
+        };
+        Ok(Self::from_model(&model, dir, format, images_dir))
+    }
+
+    /// Summarises an already-read model.
+    pub fn from_model(
+        model: &ColmapModel,
+        model_dir: PathBuf,
+        format: ModelFormat,
+        images_dir: Option<&Path>,
+    ) -> ModelInfo {
+        let mut warnings = Vec::new();
+        let mut uses: HashMap<u32, usize> = HashMap::new();
+        for im in &model.images {
+            *uses.entry(im.camera_id).or_default() += 1;
+        }
+        let cameras: Vec<CameraSummary> = model
+            .cameras
+            .iter()
+            .map(|c| CameraSummary {
+                camera_id: c.camera_id,
+                model: c.camera.model,
+                width: c.camera.width,
+                height: c.camera.height,
+                num_images: uses.get(&c.camera_id).copied().unwrap_or(0),
+            })
+            .collect();
+
+        if let Some(images_dir) = images_dir {
+            for im in &model.images {
+                let path = images_dir.join(&im.name);
+                if !path.is_file() {
+                    warnings.push(InfoWarning::MissingImage { path });
+                    continue;
+                }
+                let Some(cam) = model.camera(im.camera_id) else {
+                    continue;
+                };
+                match image_size(&path) {
+                    Ok(found) => {
+                        let want = (cam.camera.width, cam.camera.height);
+                        if found != want {
+                            warnings.push(InfoWarning::ImageSizeMismatch {
+                                path,
+                                found,
+                                camera: want,
+                            });
+                        }
+                    }
+                    Err(message) => warnings.push(InfoWarning::UnreadableImage { path, message }),
+                }
+            }
+        }
+
+        let single = model
+            .points3d
+            .iter()
+            .filter(|p| {
+                p.track
+                    .iter()
+                    .map(|t| t.image_id)
+                    .collect::<HashSet<_>>()
+                    .len()
+                    < 2
+            })
+            .count();
+        if single > 0 {
+            warnings.push(InfoWarning::SingleViewPoints { count: single });
+        }
+        let mut seen: HashSet<u32> = HashSet::new();
+        for p in &model.points3d {
+            seen.extend(p.track.iter().map(|t| t.image_id));
+        }
+        for im in &model.images {
+            if !seen.contains(&im.image_id) {
+                warnings.push(InfoWarning::ImageWithoutPoints {
+                    image_id: im.image_id,
+                    name: im.name.clone(),
+                });
+            }
+        }
+        for c in &cameras {
+            if c.num_images == 0 {
+                warnings.push(InfoWarning::UnusedCamera {
+                    camera_id: c.camera_id,
+                });
+            }
+        }
+
+        let num_points = model.points3d.len();
+        let num_observations: usize = model.points3d.iter().map(|p| p.track.len()).sum();
+        let known: Vec<f64> = model
+            .points3d
+            .iter()
+            .map(|p| p.error)
+            .filter(|e| *e >= 0.0)
+            .collect();
+        let mean_reprojection_error =
+            (!known.is_empty()).then(|| known.iter().sum::<f64>() / known.len() as f64);
+        let (bbox, robust_bbox) = if num_points == 0 {
+            (None, None)
+        } else {
+            let mut b = BoundingBox {
+                min: [f64::INFINITY; 3],
+                max: [f64::NEG_INFINITY; 3],
+            };
+            let mut r = b;
+            for axis in 0..3 {
+                let mut v: Vec<f64> = model.points3d.iter().map(|p| p.xyz[axis]).collect();
+                v.sort_by(f64::total_cmp);
+                b.min[axis] = v[0];
+                b.max[axis] = v[v.len() - 1];
+                r.min[axis] = percentile(&v, ROBUST_BOX_LOW_PERCENTILE);
+                r.max[axis] = percentile(&v, ROBUST_BOX_HIGH_PERCENTILE);
+            }
+            (Some(b), Some(r))
+        };
+        ModelInfo {
+            model_dir,
+            format,
+            cameras,
+            num_images: model.images.len(),
+            num_points,
+            num_observations,
+            mean_track_length: if num_points == 0 {
+                0.0
+            } else {
+                num_observations as f64 / num_points as f64
+            },
+            mean_reprojection_error,
+            bbox,
+            robust_bbox,
+            warnings,
+        }
+    }
+}
+
+fn fmt_box(f: &mut fmt::Formatter<'_>, label: &str, b: &Option<BoundingBox>) -> fmt::Result {
+    match b {
+        Some(b) => writeln!(
+            f,
+            "{label}: x [{:.4}, {:.4}]  y [{:.4}, {:.4}]  z [{:.4}, {:.4}]",
+            b.min[0], b.max[0], b.min[1], b.max[1], b.min[2], b.max[2]
+        ),
+        None => writeln!(f, "{label}: (no points)"),
+    }
+}
+
+impl fmt::Display for ModelInfo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let format = match self.format {
+            ModelFormat::Binary => "binary",
+            ModelFormat::Text => "text",
+        };
+        writeln!(f, "COLMAP model: {} ({format})", self.model_dir.display())?;
+        writeln!(f, "cameras: {}", self.cameras.len())?;
+        for c in &self.cameras {
+            writeln!(
+                f,
+                "  camera {}: {} {}x{}, {} image(s)",
+                c.camera_id,
+                c.model.name(),
+                c.width,
+                c.height,
+                c.num_images
+            )?;
+        }
+        writeln!(f, "images: {}", self.num_images)?;
+        writeln!(
+            f,
+            "points: {} ({} observations)",
+            self.num_points, self.num_observations
+        )?;
+        writeln!(f, "mean track length: {:.3}", self.mean_track_length)?;
+        match self.mean_reprojection_error {
+            Some(e) => writeln!(f, "mean reprojection error: {e:.4} px")?,
+            None => writeln!(f, "mean reprojection error: unknown")?,
+        }
+        fmt_box(f, "bounding box", &self.bbox)?;
+        fmt_box(
+            f,
+            &format!(
+                "robust box ({}-{} %)",
+                ROBUST_BOX_LOW_PERCENTILE, ROBUST_BOX_HIGH_PERCENTILE
+            ),
+            &self.robust_bbox,
+        )?;
+        if self.warnings.is_empty() {
+            writeln!(f, "warnings: none")?;
+        } else {
+            writeln!(f, "warnings: {}", self.warnings.len())?;
+            for w in &self.warnings {
+                writeln!(f, "  - {w}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Camera;
+    use crate::io::colmap::{
+        write_model_text, ColmapCamera, ColmapImage, ColmapPoint3D, Point2D, TrackElement,
+    };
+
+    fn model() -> ColmapModel {
+        let cam = |id, w, h| ColmapCamera {
+            camera_id: id,
+            camera: Camera::pinhole(w, h, 10.0, 10.0, w as f64 / 2.0, h as f64 / 2.0),
+        };
+        let image = |id, name: &str, n| ColmapImage {
+            image_id: id,
+            qvec: [1.0, 0.0, 0.0, 0.0],
+            tvec: [0.0, 0.0, 0.0],
+            camera_id: 1,
+            name: name.into(),
+            points2d: (0..n)
+                .map(|k| Point2D {
+                    x: k as f64,
+                    y: 0.0,
+                    point3d_id: Some(k as u64 + 1),
+                })
+                .collect(),
+        };
+        // 100 points along x from 0 to 99 plus one outlier at 1000: the robust box ignores it.
+        let mut points3d: Vec<ColmapPoint3D> = (0..101)
+            .map(|k| ColmapPoint3D {
+                point3d_id: k as u64 + 1,
+                xyz: [if k == 100 { 1000.0 } else { k as f64 }, 0.0, 1.0],
+                rgb: [0, 0, 0],
+                error: if k == 0 { -1.0 } else { 0.5 },
+                track: vec![
+                    TrackElement {
+                        image_id: 1,
+                        point2d_idx: k,
+                    },
+                    TrackElement {
+                        image_id: 2,
+                        point2d_idx: k,
+                    },
+                ],
+            })
+            .collect();
+        points3d[3].track.pop(); // seen once
+        ColmapModel {
+            cameras: vec![cam(1, 8, 6), cam(2, 4, 4)],
+            images: vec![
+                image(1, "a.png", 101),
+                image(2, "b.png", 101),
+                image(3, "c.png", 0),
+            ],
+            points3d,
+        }
+    }
+
+    #[test]
+    fn summary_numbers_and_warnings() {
+        let dir = tempfile::tempdir().unwrap();
+        let m = model();
+        write_model_text(&dir.path().join("sparse"), &m).unwrap();
+        let imgs = dir.path().join("images");
+        std::fs::create_dir(&imgs).unwrap();
+        image::RgbImage::new(8, 6).save(imgs.join("a.png")).unwrap();
+        image::RgbImage::new(9, 6).save(imgs.join("b.png")).unwrap();
+        let info = ModelInfo::from_dir(dir.path(), Some(&imgs)).unwrap();
+        assert_eq!(info.format, ModelFormat::Text);
+        assert_eq!(info.num_images, 3);
+        assert_eq!(info.num_points, 101);
+        assert_eq!(info.num_observations, 201);
+        assert!((info.mean_track_length - 201.0 / 101.0).abs() < 1e-12);
+        assert_eq!(info.mean_reprojection_error, Some(0.5));
+        assert_eq!(info.bbox.unwrap().max[0], 1000.0);
+        let r = info.robust_bbox.unwrap();
+        assert!(r.max[0] >= 97.0 && r.max[0] <= 99.0, "{r:?}");
+        assert!(r.min[0] >= 1.0 && r.min[0] <= 3.0, "{r:?}");
+        let w = &info.warnings;
+        assert!(
+            w.contains(&InfoWarning::MissingImage {
+                path: imgs.join("c.png")
+            }),
+            "{w:?}"
+        );
+        assert!(w.contains(&InfoWarning::ImageSizeMismatch {
+            path: imgs.join("b.png"),
+            found: (9, 6),
+            camera: (8, 6)
+        }));
+        assert!(w.contains(&InfoWarning::SingleViewPoints { count: 1 }));
+        assert!(w.contains(&InfoWarning::ImageWithoutPoints {
+            image_id: 3,
+            name: "c.png".into()
+        }));
+        assert!(w.contains(&InfoWarning::UnusedCamera { camera_id: 2 }));
+        assert_eq!(w.len(), 5, "{w:?}");
+        let text = info.to_string();
+        assert!(text.contains("camera 1: PINHOLE 8x6, 3 image(s)"), "{text}");
+        assert!(
+            text.contains("b.png is 9x6 but its camera says 8x6"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn jpeg_header_size() {
+        // SOI, APP0 (len 4), SOF0 with height 0x0102, width 0x0304.
+        let b = [
+            0xFF, 0xD8, 0xFF, 0xE0, 0x00, 0x04, 0x00, 0x00, 0xFF, 0xC0, 0x00, 0x11, 0x08, 0x01,
+            0x02, 0x03, 0x04,
+        ];
+        assert_eq!(jpeg_size(&b), Some((0x0304, 0x0102)));
+        assert_eq!(jpeg_size(&b[..10]), None);
+    }
+}
