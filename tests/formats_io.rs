@@ -141,6 +141,17 @@ fn ply_files() -> Result<(), Box<dyn std::error::Error>> {
     let mpath = dir.path().join("mesh.ply");
     ply::write_ply_mesh_path(&mpath, &mesh)?;
     assert_eq!(ply::read_ply_mesh_path(&mpath)?, mesh);
+    // `PLANEMAP_KEEP_PLY=dir` keeps copies for tools/check_ply.py (a real PLY client).
+    if let Some(keep) = std::env::var_os("PLANEMAP_KEEP_PLY") {
+        let keep = Path::new(&keep);
+        fs::create_dir_all(keep)?;
+        fs::copy(&path, keep.join("fused.ply"))?;
+        fs::copy(&mpath, keep.join("mesh.ply"))?;
+        let mut plain = points.clone();
+        plain.normals = None;
+        plain.colors = None;
+        ply::write_ply_points_path(&keep.join("plain.ply"), &plain)?;
+    }
 
     let bad = dir.path().join("bad.ply");
     let bytes = fs::read(&path)?;
@@ -277,11 +288,7 @@ fn pmvs_bad_inputs() -> Result<(), Box<dyn std::error::Error>> {
     // A patch visible in an image without a camera.
     let patch = dir.path().join("models").join("option-0000.patch");
     let good = fs::read_to_string(&patch)?;
-    fs::write(
-        &patch,
-        good.replacen("PATCHS", "PATCHS", 1)
-            .replacen("\n3\n0 1 2 \n", "\n3\n0 1 9 \n", 1),
-    )?;
+    fs::write(&patch, good.replacen("\n3\n0 1 2 \n", "\n3\n0 1 9 \n", 1))?;
     assert_names(&pmvs::read_pmvs(dir.path()).unwrap_err(), &patch, "line 3");
     // NaN in a position.
     let lines: Vec<&str> = good.lines().collect();
@@ -296,5 +303,31 @@ fn pmvs_bad_inputs() -> Result<(), Box<dyn std::error::Error>> {
     assert_names(&pmvs::read_pmvs(dir.path()).unwrap_err(), &txt, "line 3");
     fs::write(&txt, "CONTOUR\n1 0 0 0\n0 1 0 0\n")?;
     assert_names(&pmvs::read_pmvs(dir.path()).unwrap_err(), &txt, "line 3");
+    Ok(())
+}
+
+/// Throughput of the PLY writer and reader on a million points (run with `--ignored
+/// --nocapture`; prints timings, checks the round trip).
+#[test]
+#[ignore]
+fn ply_throughput_million_points() -> Result<(), Box<dyn std::error::Error>> {
+    let n = 1_000_000;
+    let points = ply::PlyPoints {
+        positions: (0..n)
+            .map(|i| Vector3::new(i as f64 * 0.5, (i % 977) as f64, 0.25))
+            .collect(),
+        normals: Some(vec![Vector3::new(0.0, 0.0, 1.0); n]),
+        colors: Some(vec![[10, 20, 30]; n]),
+    };
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("big.ply");
+    let t = std::time::Instant::now();
+    ply::write_ply_points_path(&path, &points)?;
+    let write = t.elapsed();
+    let t = std::time::Instant::now();
+    let back = ply::read_ply_points_path(&path)?;
+    let read = t.elapsed();
+    println!("1M points, 27 MB: write {write:?}, read {read:?}");
+    assert_eq!(back, points);
     Ok(())
 }

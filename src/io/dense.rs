@@ -316,4 +316,24 @@ mod tests {
             .to_string();
         assert!(err.contains("byte 10") && err.contains("width"), "{err}");
     }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+        #[test]
+        fn mutated_input_never_panics(
+            edits in proptest::collection::vec(
+                (proptest::prelude::any::<proptest::sample::Index>(), proptest::prelude::any::<u8>()),
+                1..5,
+            ),
+            cut in proptest::prelude::any::<proptest::sample::Index>(),
+        ) {
+            let mut bytes = { let mut v = Vec::new(); write_dense_map(&mut v, &ImageF32::filled(3, 2, 3, 0.5)).unwrap(); v };
+            for (at, b) in edits {
+                let i = at.index(bytes.len());
+                bytes[i] = b;
+            }
+            bytes.truncate(cut.index(bytes.len() + 1).max(bytes.len() / 2));
+            let _ = read_dense_map(&bytes[..]);
+        }
+    }
 }

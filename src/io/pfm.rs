@@ -334,4 +334,24 @@ mod tests {
         let img = ImageF32::filled(1, 1, 2, 0.0);
         assert!(write_pfm(Vec::new(), &img).is_err());
     }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+        #[test]
+        fn mutated_input_never_panics(
+            edits in proptest::collection::vec(
+                (proptest::prelude::any::<proptest::sample::Index>(), proptest::prelude::any::<u8>()),
+                1..5,
+            ),
+            cut in proptest::prelude::any::<proptest::sample::Index>(),
+        ) {
+            let mut bytes = { let mut v = Vec::new(); write_pfm(&mut v, &ramp(3, 2, 3)).unwrap(); v };
+            for (at, b) in edits {
+                let i = at.index(bytes.len());
+                bytes[i] = b;
+            }
+            bytes.truncate(cut.index(bytes.len() + 1).max(bytes.len() / 2));
+            let _ = read_pfm(&bytes[..]);
+        }
+    }
 }

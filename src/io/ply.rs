@@ -28,7 +28,7 @@ const MAX_HEADER_LINE: u64 = 4096;
 /// Most header lines accepted (guards against reading a huge non-PLY file as a header).
 const MAX_HEADER_LINES: usize = 10_000;
 /// Largest up-front reservation, in elements, whatever the header's counts say.
-const MAX_RESERVE: usize = 1 << 20;
+const MAX_RESERVE: usize = 1 << 16;
 
 /// Where in a file a problem is: a line (header, ASCII body) or a byte offset (binary body).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -359,13 +359,13 @@ fn read_header<R: BufRead>(r: &mut R) -> Result<Header, PlyError> {
                 };
                 let (kind, name) = match words.as_slice() {
                     [_, "list", count, item, name] => {
-                        let count = ty(*count)?;
+                        let count = ty(count)?;
                         if count.is_float() {
                             return Err(format_err(here, "expected an integer list count type, found a float type"));
                         }
-                        (Kind::List { count, item: ty(*item)? }, name)
+                        (Kind::List { count, item: ty(item)? }, name)
                     }
-                    [_, t, name] if *t != "list" => (Kind::Scalar(ty(*t)?), name),
+                    [_, t, name] if *t != "list" => (Kind::Scalar(ty(t)?), name),
                     _ => {
                         return Err(format_err(
                             here,
@@ -379,12 +379,14 @@ fn read_header<R: BufRead>(r: &mut R) -> Result<Header, PlyError> {
                 });
             }
             Some("end_header") => break,
-            Some(other) => return Err(format_err(
-                here,
-                format!(
+            Some(other) => {
+                return Err(format_err(
+                    here,
+                    format!(
                     "expected format, element, property, comment or end_header, found {other:?}"
                 ),
-            )),
+                ))
+            }
         }
     }
     let encoding = encoding.ok_or_else(|| {
@@ -652,7 +654,10 @@ fn optional_group(el: &Element, names: [&str; 3]) -> Result<Option<[usize; 3]>, 
 }
 
 /// The first present trio of colour property names.
-fn color_group(el: &Element) -> Result<Option<([usize; 3], [Scalar; 3])>, PlyError> {
+/// Property indices of a colour trio and their types.
+type ColorProps = ([usize; 3], [Scalar; 3]);
+
+fn color_group(el: &Element) -> Result<Option<ColorProps>, PlyError> {
     for names in [
         ["red", "green", "blue"],
         ["diffuse_red", "diffuse_green", "diffuse_blue"],

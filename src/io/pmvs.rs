@@ -234,7 +234,8 @@ pub fn read_patches<R: Read>(r: R) -> Result<Vec<Patch>, PmvsError> {
     let mut t = Tokens::new(&text);
     t.word("PATCHES")?;
     let (_, n) = t.count("the number of patches")?;
-    let mut patches = Vec::with_capacity((n as usize).min(1 << 20));
+    // A patch takes at least ~30 bytes of text: never trust the count for allocation.
+    let mut patches = Vec::with_capacity((n as usize).min(text.len() / 30));
     for _ in 0..n {
         let (line, head) = t.next("\"PATCHS\"")?;
         if head != "PATCHS" && head != "PATCHA" {
@@ -840,5 +841,27 @@ mod tests {
         let err = image_size(&jpeg[..10]).unwrap_err().to_string();
         assert!(err.contains("byte"), "{err}");
         Ok(())
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+        #[test]
+        fn mutated_input_never_panics(
+            edits in proptest::collection::vec(
+                (proptest::prelude::any::<proptest::sample::Index>(), proptest::prelude::any::<u8>()),
+                1..5,
+            ),
+            cut in proptest::prelude::any::<proptest::sample::Index>(),
+        ) {
+            let mut bytes = b"PATCHES\n2\nPATCHS\n1 2 3 1\n0 0 2 0\n0.9 0.1 0.2\n2\n4 1 \n1\n7 \n\nPATCHA\n2 4 6 2\n1 0 0 0\n0.5 0 0\n3 1 0 0 1\n1\n3\n0\n\n".to_vec();
+            for (at, b) in edits {
+                let i = at.index(bytes.len());
+                bytes[i] = b;
+            }
+            bytes.truncate(cut.index(bytes.len() + 1).max(bytes.len() / 2));
+            let _ = read_patches(&bytes[..]);
+            let _ = read_projection(&bytes[..]);
+            let _ = image_size(&bytes[..]);
+        }
     }
 }
