@@ -24,13 +24,16 @@ def ensure_venv():
 
 
 def header_counts(path):
-    counts = {}
+    """Element counts, plus "_colors": whether the vertex element has red/green/blue."""
+    counts = {"_colors": False}
     with open(path, "rb") as f:
         for raw in f:
             line = raw.decode("ascii").strip()
             if line.startswith("element "):
                 _, name, count = line.split()
                 counts[name] = int(count)
+            if line == "property uchar red":
+                counts["_colors"] = True
             if line == "end_header":
                 break
     return counts
@@ -49,6 +52,8 @@ def check(path):
     else:
         assert isinstance(loaded, trimesh.PointCloud), type(loaded)
         assert len(loaded.vertices) == counts["vertex"], (len(loaded.vertices), counts)
+        if counts["_colors"]:
+            assert len(loaded.colors) == counts["vertex"], "colours not loaded"
         print(f"{path}: point cloud with {len(loaded.vertices)} points, "
               f"first {loaded.vertices[0].tolist()}")
 

@@ -683,52 +683,20 @@ fn to_u8(v: f64, ty: Scalar) -> u8 {
     }
 }
 
-fn open_body<'a, R: BufRead + 'a>(mut r: R) -> Result<(Header, Box<dyn DynBody + 'a>), PlyError> {
-    let header = read_header(&mut r)?;
-    let body: Box<dyn DynBody + 'a> = match header.encoding {
-        Encoding::Ascii => Box::new(AsciiBody {
-            r,
-            line: header.lines,
-            buf: Vec::new(),
-            pos: 0,
-        }),
-        Encoding::LittleEndian | Encoding::BigEndian => Box::new(BinaryBody {
-            r,
-            offset: header.bytes,
-            big: header.encoding == Encoding::BigEndian,
-        }),
-    };
-    Ok((header, body))
-}
-
-/// Object-safe [`Body`] so one code path serves both encodings.
-trait DynBody {
-    fn location(&self) -> Location;
-    fn next_location(&mut self) -> Result<Location, PlyError>;
-    fn scalar(&mut self, ty: Scalar, ctx: &Ctx) -> Result<f64, PlyError>;
-}
-
-impl<T: Body> DynBody for T {
-    fn location(&self) -> Location {
-        Body::location(self)
-    }
-    fn next_location(&mut self) -> Result<Location, PlyError> {
-        Body::next_location(self)
-    }
-    fn scalar(&mut self, ty: Scalar, ctx: &Ctx) -> Result<f64, PlyError> {
-        Body::scalar(self, ty, ctx)
+fn ascii_body<R: BufRead>(r: R, header: &Header) -> AsciiBody<R> {
+    AsciiBody {
+        r,
+        line: header.lines,
+        buf: Vec::new(),
+        pos: 0,
     }
 }
 
-impl Body for Box<dyn DynBody + '_> {
-    fn location(&self) -> Location {
-        (**self).location()
-    }
-    fn next_location(&mut self) -> Result<Location, PlyError> {
-        (**self).next_location()
-    }
-    fn scalar(&mut self, ty: Scalar, ctx: &Ctx) -> Result<f64, PlyError> {
-        (**self).scalar(ty, ctx)
+fn binary_body<R: BufRead>(r: R, header: &Header) -> BinaryBody<R> {
+    BinaryBody {
+        r,
+        offset: header.bytes,
+        big: header.encoding == Encoding::BigEndian,
     }
 }
 
@@ -808,8 +776,16 @@ fn read_vertices<B: Body>(
 /// Reads a PLY point cloud from a stream: element `vertex` with `x y z`, optional
 /// `nx ny nz` and `red green blue` (or `diffuse_*`). Other elements (e.g. faces) and
 /// properties are skipped. Non-finite positions or normals are errors.
-pub fn read_ply_points<R: BufRead>(r: R) -> Result<PlyPoints, PlyError> {
-    let (header, mut body) = open_body(r)?;
+pub fn read_ply_points<R: BufRead>(mut r: R) -> Result<PlyPoints, PlyError> {
+    let header = read_header(&mut r)?;
+    // One monomorphised reader per encoding: no dynamic dispatch per value.
+    match header.encoding {
+        Encoding::Ascii => points_body(&header, ascii_body(r, &header)),
+        _ => points_body(&header, binary_body(r, &header)),
+    }
+}
+
+fn points_body<B: Body>(header: &Header, mut body: B) -> Result<PlyPoints, PlyError> {
     if !header.elements.iter().any(|e| e.name == "vertex") {
         return Err(format_err(
             Location::Line(header.lines),
@@ -842,8 +818,15 @@ pub fn read_ply_points_path(path: &Path) -> Result<PlyPoints, PlyError> {
 /// `face` with a list property `vertex_indices` (or `vertex_index`). Polygons with more than
 /// three corners are split into a triangle fan around their first corner; faces with fewer
 /// than three corners, or indices outside the vertex list, are errors.
-pub fn read_ply_mesh<R: BufRead>(r: R) -> Result<PlyMesh, PlyError> {
-    let (header, mut body) = open_body(r)?;
+pub fn read_ply_mesh<R: BufRead>(mut r: R) -> Result<PlyMesh, PlyError> {
+    let header = read_header(&mut r)?;
+    match header.encoding {
+        Encoding::Ascii => mesh_body(&header, ascii_body(r, &header)),
+        _ => mesh_body(&header, binary_body(r, &header)),
+    }
+}
+
+fn mesh_body<B: Body>(header: &Header, mut body: B) -> Result<PlyMesh, PlyError> {
     let vertex_el = header
         .elements
         .iter()
