@@ -2,4 +2,10 @@
 //! dense maps. Each reader takes `impl Read` and has a path wrapper beside it; errors name the
 //! file and the line or byte offset.
 
+pub mod atomic;
 pub mod colmap;
+pub mod dense;
+pub mod labelpng;
+pub mod pfm;
+pub mod ply;
+pub mod pmvs;
