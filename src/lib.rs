@@ -6,9 +6,13 @@
 //! papers each module implements.
 #![deny(missing_docs)]
 
+pub mod axes;
 pub mod geometry;
+pub mod hypotheses;
 pub mod io;
+pub mod normals;
 pub mod raster;
+pub mod scale;
 pub mod scene;
 pub mod synth;
 
