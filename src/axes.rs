@@ -324,7 +324,7 @@ pub fn dominant_axes(
         })
         .collect();
     // Highest support first; ties by bin order (already deterministic).
-    candidates.sort_by(|a, b| b.1.cmp(&a.1));
+    candidates.sort_by_key(|c| std::cmp::Reverse(c.1));
 
     let min_support = config
         .min_support

@@ -415,4 +415,19 @@ pub(crate) mod tests {
         assert_eq!(c.k, 24);
         assert_eq!(c.min_neighbors, NormalsConfig::default().min_neighbors);
     }
+
+    /// Cost check (run with `--ignored`): 100k points.
+    #[test]
+    #[ignore]
+    fn normals_timing() {
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let pts: Vec<Vector3<f64>> = (0..100_000)
+            .map(|_| Vector3::new(rng.random(), rng.random(), rng.random::<f64>() * 0.002))
+            .collect();
+        let scene = scene_from(vec![test_view(0, Vector3::new(0.5, 0.5, 6.0))], pts);
+        let t = std::time::Instant::now();
+        let oc = estimate_normals_with_scale(&scene, 0.002, &NormalsConfig::default()).unwrap();
+        eprintln!("100k normals: {:?}", t.elapsed());
+        assert!(oc.normals.iter().filter(|n| n.z > 0.9).count() > 95_000);
+    }
 }
