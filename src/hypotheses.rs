@@ -478,6 +478,108 @@ mod tests {
         }
     }
 
+    #[test]
+    fn house_with_roof_slopes_end_to_end() {
+        // Walls x, y ∈ [-1, 1], z ∈ [0, 1], floor z = 0, gable roof at 30° over x.
+        let mut rng = ChaCha8Rng::seed_from_u64(17);
+        let slope = 30f64.to_radians();
+        let mut pts = Vec::new();
+        let mut u = |a: f64, b: f64| rng.random_range(a..b);
+        let noise = 0.003;
+        for _ in 0..2000 {
+            for s in [-1.0, 1.0] {
+                pts.push(Vector3::new(
+                    s + u(-noise, noise),
+                    u(-1.0, 1.0),
+                    u(0.0, 1.0),
+                ));
+                pts.push(Vector3::new(
+                    u(-1.0, 1.0),
+                    s + u(-noise, noise),
+                    u(0.0, 1.0),
+                ));
+            }
+        }
+        for _ in 0..2500 {
+            pts.push(Vector3::new(u(-1.0, 1.0), u(-1.0, 1.0), u(-noise, noise)));
+        }
+        for _ in 0..1500 {
+            for s in [-1.0, 1.0] {
+                let x: f64 = u(0.0, 1.0);
+                pts.push(Vector3::new(
+                    s * x,
+                    u(-1.0, 1.0),
+                    1.0 + (1.0 - x) * slope.tan() + u(-noise, noise),
+                ));
+            }
+        }
+        let truth = [
+            Plane::new(Vector3::x(), 1.0),
+            Plane::new(Vector3::x(), -1.0),
+            Plane::new(Vector3::y(), 1.0),
+            Plane::new(Vector3::y(), -1.0),
+            Plane::new(Vector3::z(), 0.0),
+            Plane::through(
+                &Vector3::new(1.0, 0.0, 1.0),
+                &Vector3::new(slope.sin(), 0.0, slope.cos()),
+            ),
+            Plane::through(
+                &Vector3::new(-1.0, 0.0, 1.0),
+                &Vector3::new(-slope.sin(), 0.0, slope.cos()),
+            ),
+        ];
+        let views: Vec<_> = (0..8)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 8.0 + 0.2;
+                let z = if i % 2 == 0 { 4.0 } else { -3.0 };
+                test_view(i, Vector3::new(6.0 * a.cos(), 6.0 * a.sin(), z))
+            })
+            .collect();
+        let scene = scene_from(views, pts);
+        let r = sampling_scale(&scene).unwrap();
+        let oc = estimate_normals(&scene, &NormalsConfig::default()).unwrap();
+        let plain = dominant_axes(&oc, &AxesConfig::default()).unwrap();
+        assert_eq!(plain.directions.len(), 3);
+        let axes = dominant_axes(
+            &oc,
+            &AxesConfig {
+                max_extra_directions: 4,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(axes.directions.len(), 5, "{:?}", axes.directions);
+        let input = HypothesesInput {
+            positions: &scene.cloud.positions,
+            normals: &oc.normals,
+            confidence: &oc.confidence,
+            axes: &axes,
+            scale: r,
+        };
+        let hyps = plane_hypotheses(&input, &HypothesesConfig::default()).unwrap();
+        let mut matched_ids = Vec::new();
+        for t in &truth {
+            let m: Vec<_> = hyps
+                .iter()
+                .filter(|h| {
+                    let c = h.plane.normal.dot(&t.normal);
+                    c.abs() > 0.9995 && (h.plane.offset - c.signum() * t.offset).abs() < r
+                })
+                .collect();
+            assert_eq!(m.len(), 1, "plane {t:?}: {m:?}");
+            matched_ids.push(m[0].id);
+        }
+        // Anything else (e.g. the ridge line, whose PCA normals point up) is weakly supported.
+        let weakest_true = matched_ids
+            .iter()
+            .map(|&i| hyps[i as usize].support)
+            .min()
+            .unwrap();
+        for h in hyps.iter().filter(|h| !matched_ids.contains(&h.id)) {
+            assert!(h.support * 4 < weakest_true, "spurious {h:?}");
+        }
+    }
+
     fn manual_axes(dirs: Vec<Vector3<f64>>) -> DominantAxes {
         let m = dirs.len();
         DominantAxes {
