@@ -18,6 +18,9 @@ use thiserror::Error;
 use crate::scale::{sampling_scale, ScaleError};
 use crate::scene::{Scene, SceneError};
 
+/// Extra neighbours fetched beyond `k` so distance ties are broken by point index.
+const KNN_TIE_SLACK: usize = 4;
+
 /// Errors of normal estimation.
 #[derive(Debug, Error)]
 pub enum NormalsError {
@@ -190,7 +193,10 @@ pub fn estimate_normals_with_scale(
     let tree: ImmutableKdTree<f64, 3> =
         ImmutableKdTree::new_from_slice(&coords).map_err(|e| NormalsError::Index(e.to_string()))?;
     let radius = config.max_radius_r * r;
-    let k = NonZeroUsize::new(config.k).ok_or_else(|| NormalsError::Config("k = 0".into()))?;
+    // A few spare neighbours so that ties at the k-th distance are broken by point index,
+    // not by the tree's traversal order.
+    let k_query = NonZeroUsize::new(config.k + KNN_TIE_SLACK)
+        .ok_or_else(|| NormalsError::Config("k = 0".into()))?;
 
     let results: Vec<(Vector3<f64>, f64)> = (0..n)
         .into_par_iter()
@@ -198,13 +204,14 @@ pub fn estimate_normals_with_scale(
             let p = cloud.positions[i];
             let mut nbrs: Vec<(f64, u32)> = tree
                 .query(&coords[i])
-                .nearest_n::<SquaredEuclidean<f64>>(k)
+                .nearest_n::<SquaredEuclidean<f64>>(k_query)
                 .within(radius * radius)
                 .execute()
                 .into_iter()
                 .map(|q| (q.distance, q.item))
                 .collect();
             nbrs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            nbrs.truncate(config.k);
             let towards = view_direction(&p, &cloud.tracks[i], &centers);
             let fallback = || {
                 let len = towards.norm();
