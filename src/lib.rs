@@ -6,11 +6,15 @@
 //! papers each module implements.
 #![deny(missing_docs)]
 
+pub mod axes;
 pub mod geometry;
+pub mod hypotheses;
 pub mod info;
 pub mod io;
+pub mod normals;
 pub mod progress;
 pub mod raster;
+pub mod scale;
 pub mod scene;
 pub mod synth;
 

@@ -1,0 +1,608 @@
+//! Dominant axes (the Manhattan frame) from oriented points.
+//!
+//! Furukawa et al. 2009, §4.1: histogram the normals on the hemisphere (~1000 bins); d1 is the
+//! mean normal of the fullest bin; d2 the fullest bin 80°–100° from d1; d3 the fullest bin
+//! 80°–100° from both. The axes are not forced to be orthogonal.
+//!
+//! Our variant: bins are an equal-area "igloo" grid on the hemisphere (`n` and `−n` folded
+//! together). Because folding splits a peak lying on the hemisphere's rim between two bins,
+//! each of the fullest bins (up to `max_candidates`) proposes its mean normal, and a candidate
+//! is scored by its *axial support*: the number of normals within `refine_angle_deg` of it,
+//! counting `n` and `−n` alike. The chosen candidate is refined by re-averaging those normals
+//! (axially) a few times. Optional: snapping to an orthonormal frame, extra (non-Manhattan)
+//! directions for roofs and oblique walls.
+
+use std::f64::consts::PI;
+
+use nalgebra::{DMatrix, Vector3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::normals::{canonical_sign, OrientedCloud};
+
+/// Errors of the dominant-axes stage.
+#[derive(Debug, Error, PartialEq)]
+pub enum AxesError {
+    /// The configuration is invalid (message says which field and why).
+    #[error("invalid axes config: {0}")]
+    Config(String),
+    /// Normals and confidences differ in length.
+    #[error("{normals} normals but {confidence} confidences")]
+    Inconsistent {
+        /// Number of normals.
+        normals: usize,
+        /// Number of confidences.
+        confidence: usize,
+    },
+    /// No normal passed the confidence filter.
+    #[error("no usable normals (none with confidence ≥ {0})")]
+    NoNormals(f64),
+    /// Fewer than three directions were found and the config asks for an error.
+    #[error("only {found} dominant direction(s) found, 3 required")]
+    TooFewAxes {
+        /// How many were found.
+        found: usize,
+    },
+}
+
+/// What to do when fewer than three dominant directions exist.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MissingAxes {
+    /// Return the directions that exist and a [`AxesWarning::FewerThanThree`] warning.
+    #[default]
+    Warn,
+    /// Fail with [`AxesError::TooFewAxes`].
+    Error,
+}
+
+/// Configuration of [`dominant_axes`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct AxesConfig {
+    /// Approximate number of hemisphere bins (paper: ~1000).
+    pub num_bins: usize,
+    /// Half-angle (degrees) of the cone used to score and refine a direction.
+    pub refine_angle_deg: f64,
+    /// Refinement iterations (re-averaging normals within `refine_angle_deg`).
+    pub refine_iterations: usize,
+    /// Fullest bins proposed as candidate directions.
+    pub max_candidates: usize,
+    /// Lower bound (degrees) of the angle between d2 and d1, and d3 and d1, d2 (paper: 80°).
+    pub min_orthogonal_deg: f64,
+    /// Upper bound (degrees) of that angle (paper: 100°; as an axial angle ≤ 90° this means
+    /// "within `180 − max` of perpendicular").
+    pub max_orthogonal_deg: f64,
+    /// Minimum axial support of d1–d3 as a fraction of the usable normals (guards against a
+    /// handful of stray normals making an axis).
+    pub min_support_fraction: f64,
+    /// Minimum axial support of d1–d3 in points.
+    pub min_support: usize,
+    /// Normals with confidence below this are ignored.
+    pub min_confidence: f64,
+    /// Replace d1..d3 by the nearest orthonormal frame (polar decomposition). Off in the paper.
+    pub snap_orthonormal: bool,
+    /// Extra directions beyond the Manhattan three (roof slopes, oblique walls); 0 = paper.
+    pub max_extra_directions: usize,
+    /// Minimum support of an extra direction as a fraction of the usable normals.
+    pub extra_min_support_fraction: f64,
+    /// Minimum angle (degrees) between an extra direction and every direction already found.
+    pub extra_min_separation_deg: f64,
+    /// Behaviour when fewer than three Manhattan directions exist.
+    pub on_missing: MissingAxes,
+}
+
+impl Default for AxesConfig {
+    fn default() -> Self {
+        AxesConfig {
+            num_bins: 1000,
+            refine_angle_deg: 5.0,
+            refine_iterations: 3,
+            max_candidates: 64,
+            min_orthogonal_deg: 80.0,
+            max_orthogonal_deg: 100.0,
+            min_support_fraction: 0.02,
+            min_support: 10,
+            min_confidence: 1e-3,
+            snap_orthonormal: false,
+            max_extra_directions: 0,
+            extra_min_support_fraction: 0.05,
+            extra_min_separation_deg: 20.0,
+            on_missing: MissingAxes::Warn,
+        }
+    }
+}
+
+impl AxesConfig {
+    /// Checks the fields.
+    pub fn validate(&self) -> Result<(), AxesError> {
+        let bad = |m: String| Err(AxesError::Config(m));
+        if self.num_bins < 10 {
+            return bad(format!("num_bins = {} must be ≥ 10", self.num_bins));
+        }
+        if !(self.refine_angle_deg > 0.0 && self.refine_angle_deg < 45.0) {
+            return bad(format!(
+                "refine_angle_deg = {} must be in (0, 45)",
+                self.refine_angle_deg
+            ));
+        }
+        if self.max_candidates == 0 {
+            return bad("max_candidates must be ≥ 1".into());
+        }
+        if !(0.0..=90.0).contains(&self.min_orthogonal_deg)
+            || !(90.0..=180.0).contains(&self.max_orthogonal_deg)
+        {
+            return bad(format!(
+                "orthogonality window [{}, {}] must satisfy 0 ≤ min ≤ 90 ≤ max ≤ 180",
+                self.min_orthogonal_deg, self.max_orthogonal_deg
+            ));
+        }
+        for (name, v) in [
+            ("min_support_fraction", self.min_support_fraction),
+            (
+                "extra_min_support_fraction",
+                self.extra_min_support_fraction,
+            ),
+            ("min_confidence", self.min_confidence),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return bad(format!("{name} = {v} must be in [0, 1]"));
+            }
+        }
+        if !(self.extra_min_separation_deg > 0.0 && self.extra_min_separation_deg <= 90.0) {
+            return bad(format!(
+                "extra_min_separation_deg = {} must be in (0, 90]",
+                self.extra_min_separation_deg
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A non-fatal finding of the axes stage.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum AxesWarning {
+    /// Only this many Manhattan directions were found (e.g. all points on one or two planes).
+    FewerThanThree(usize),
+    /// Snapping was requested but needs at least two directions.
+    SnapSkipped,
+}
+
+/// The dominant directions of the scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DominantAxes {
+    /// Unit directions (world frame): d1, d2, d3 (those found), then any extra directions.
+    /// Sign: in the hemisphere z > 0 (ties: y > 0, then x > 0).
+    pub directions: Vec<Vector3<f64>>,
+    /// Axial support of each direction: normals within `refine_angle_deg` of it.
+    pub support: Vec<usize>,
+    /// For each pair `i < j`, the acute angle (degrees, in [0, 90]) between the directions.
+    pub pairwise_angles_deg: Vec<(usize, usize, f64)>,
+    /// How many of `directions` are Manhattan axes (d1–d3); the rest are extra directions.
+    pub num_manhattan: usize,
+    /// Non-fatal findings.
+    pub warnings: Vec<AxesWarning>,
+}
+
+/// Equal-area "igloo" binning of the upper hemisphere: bands of equal polar width, each
+/// split into azimuth cells whose number is proportional to the band's area.
+struct HemisphereGrid {
+    /// Band `b` covers polar angles [b·Δθ, (b+1)·Δθ].
+    dtheta: f64,
+    /// Azimuth cells per band.
+    cells: Vec<usize>,
+    /// First bin index of each band.
+    start: Vec<usize>,
+    total: usize,
+}
+
+impl HemisphereGrid {
+    fn new(target_bins: usize) -> Self {
+        let target_area = 2.0 * PI / target_bins as f64;
+        // Square-ish cells: band width ≈ sqrt(cell area).
+        let bands = ((PI / 2.0) / target_area.sqrt()).round().max(1.0) as usize;
+        let dtheta = (PI / 2.0) / bands as f64;
+        let mut cells = Vec::with_capacity(bands);
+        let mut start = Vec::with_capacity(bands);
+        let mut total = 0;
+        for b in 0..bands {
+            let area = 2.0 * PI * ((b as f64 * dtheta).cos() - ((b + 1) as f64 * dtheta).cos());
+            let c = (area / target_area).round().max(1.0) as usize;
+            start.push(total);
+            cells.push(c);
+            total += c;
+        }
+        HemisphereGrid {
+            dtheta,
+            cells,
+            start,
+            total,
+        }
+    }
+
+    /// Bin of a unit vector already folded into the upper hemisphere.
+    fn bin(&self, n: &Vector3<f64>) -> usize {
+        let theta = n.z.clamp(-1.0, 1.0).acos();
+        let b = ((theta / self.dtheta) as usize).min(self.cells.len() - 1);
+        let phi = n.y.atan2(n.x).rem_euclid(2.0 * PI);
+        let c = ((phi / (2.0 * PI) * self.cells[b] as f64) as usize).min(self.cells[b] - 1);
+        self.start[b] + c
+    }
+}
+
+/// Acute angle in degrees between two unit axes (sign-free).
+fn axial_angle_deg(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    a.dot(b).abs().clamp(0.0, 1.0).acos().to_degrees()
+}
+
+/// Axial support and axial mean of the normals within `cos_tol` of `d`.
+fn axial_stats(normals: &[Vector3<f64>], d: &Vector3<f64>, cos_tol: f64) -> (usize, Vector3<f64>) {
+    let mut count = 0;
+    let mut sum = Vector3::zeros();
+    for n in normals {
+        let c = n.dot(d);
+        if c.abs() >= cos_tol {
+            count += 1;
+            sum += if c < 0.0 { -n } else { *n };
+        }
+    }
+    (count, sum)
+}
+
+/// Refines `d` by re-averaging (axially) the normals within `cos_tol`; returns the direction
+/// and its final support.
+fn refine(
+    normals: &[Vector3<f64>],
+    d: Vector3<f64>,
+    cos_tol: f64,
+    iters: usize,
+) -> (Vector3<f64>, usize) {
+    let mut d = d;
+    for _ in 0..iters {
+        let (count, sum) = axial_stats(normals, &d, cos_tol);
+        let len = sum.norm();
+        if count == 0 || len == 0.0 {
+            break;
+        }
+        d = sum / len;
+    }
+    let (count, _) = axial_stats(normals, &d, cos_tol);
+    (canonical_sign(d), count)
+}
+
+/// Finds the dominant directions of the oriented cloud (see the module doc).
+pub fn dominant_axes(
+    cloud: &OrientedCloud,
+    config: &AxesConfig,
+) -> Result<DominantAxes, AxesError> {
+    config.validate()?;
+    if cloud.normals.len() != cloud.confidence.len() {
+        return Err(AxesError::Inconsistent {
+            normals: cloud.normals.len(),
+            confidence: cloud.confidence.len(),
+        });
+    }
+    let normals: Vec<Vector3<f64>> = cloud
+        .normals
+        .iter()
+        .zip(&cloud.confidence)
+        .filter(|(n, &c)| c >= config.min_confidence && c > 0.0 && n.iter().all(|v| v.is_finite()))
+        .filter_map(|(n, _)| {
+            let len = n.norm();
+            (len > 0.0).then(|| canonical_sign(n / len))
+        })
+        .collect();
+    if normals.is_empty() {
+        return Err(AxesError::NoNormals(config.min_confidence));
+    }
+
+    // Histogram: count and (folded) vector sum per bin.
+    let grid = HemisphereGrid::new(config.num_bins);
+    let mut count = vec![0usize; grid.total];
+    let mut sum = vec![Vector3::zeros(); grid.total];
+    for n in &normals {
+        let b = grid.bin(n);
+        count[b] += 1;
+        sum[b] += n;
+    }
+    let mut bins: Vec<usize> = (0..grid.total).filter(|&b| count[b] > 0).collect();
+    bins.sort_by(|&a, &b| count[b].cmp(&count[a]).then(a.cmp(&b)));
+    bins.truncate(config.max_candidates);
+
+    let cos_tol = config.refine_angle_deg.to_radians().cos();
+    // Candidates: each bin's mean normal, refined and scored by axial support.
+    let mut candidates: Vec<(Vector3<f64>, usize)> = bins
+        .par_iter()
+        .map(|&b| {
+            refine(
+                &normals,
+                sum[b].normalize(),
+                cos_tol,
+                config.refine_iterations,
+            )
+        })
+        .collect();
+    // Highest support first; ties by bin order (already deterministic).
+    candidates.sort_by_key(|c| std::cmp::Reverse(c.1));
+
+    let min_support = config
+        .min_support
+        .max((config.min_support_fraction * normals.len() as f64).ceil() as usize)
+        .max(1);
+    let ortho_ok = |a: &Vector3<f64>, b: &Vector3<f64>| {
+        let ang = a.dot(b).clamp(-1.0, 1.0).acos().to_degrees();
+        ang >= config.min_orthogonal_deg && ang <= config.max_orthogonal_deg
+            || (180.0 - ang) >= config.min_orthogonal_deg
+                && (180.0 - ang) <= config.max_orthogonal_deg
+    };
+
+    let mut directions: Vec<Vector3<f64>> = Vec::new();
+    let mut support: Vec<usize> = Vec::new();
+    for _ in 0..3 {
+        let pick = candidates
+            .iter()
+            .find(|(d, s)| *s >= min_support && directions.iter().all(|e| ortho_ok(d, e)));
+        match pick {
+            Some(&(d, s)) => {
+                directions.push(d);
+                support.push(s);
+            }
+            None => break,
+        }
+    }
+    let num_manhattan = directions.len();
+    let mut warnings = Vec::new();
+    if num_manhattan < 3 {
+        if config.on_missing == MissingAxes::Error {
+            return Err(AxesError::TooFewAxes {
+                found: num_manhattan,
+            });
+        }
+        warnings.push(AxesWarning::FewerThanThree(num_manhattan));
+    }
+
+    if config.snap_orthonormal {
+        if num_manhattan >= 2 {
+            // Nearest matrix with orthonormal columns: U Vᵀ of the SVD (polar decomposition).
+            let m = DMatrix::from_fn(3, num_manhattan, |r, c| directions[c][r]);
+            let svd = m.svd(true, true);
+            if let (Some(u), Some(vt)) = (svd.u, svd.v_t) {
+                let q = u * vt;
+                for (c, d) in directions.iter_mut().enumerate() {
+                    let col = Vector3::new(q[(0, c)], q[(1, c)], q[(2, c)]);
+                    *d = canonical_sign(col.normalize());
+                }
+            }
+        } else {
+            warnings.push(AxesWarning::SnapSkipped);
+        }
+    }
+
+    let extra_min =
+        ((config.extra_min_support_fraction * normals.len() as f64).ceil() as usize).max(1);
+    for _ in 0..config.max_extra_directions {
+        let pick = candidates.iter().find(|(d, s)| {
+            *s >= extra_min
+                && directions
+                    .iter()
+                    .all(|e| axial_angle_deg(d, e) >= config.extra_min_separation_deg)
+        });
+        match pick {
+            Some(&(d, s)) => {
+                directions.push(d);
+                support.push(s);
+            }
+            None => break,
+        }
+    }
+    // Supports are recounted for the final (possibly snapped) directions.
+    for (d, s) in directions.iter().zip(support.iter_mut()) {
+        *s = axial_stats(&normals, d, cos_tol).0;
+    }
+    let mut pairwise_angles_deg = Vec::new();
+    for i in 0..directions.len() {
+        for j in i + 1..directions.len() {
+            pairwise_angles_deg.push((i, j, axial_angle_deg(&directions[i], &directions[j])));
+        }
+    }
+    Ok(DominantAxes {
+        directions,
+        support,
+        pairwise_angles_deg,
+        num_manhattan,
+        warnings,
+    })
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use nalgebra::{Rotation3, Unit};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A unit vector perturbed by roughly `sigma_deg` degrees.
+    pub(crate) fn jitter(rng: &mut ChaCha8Rng, n: Vector3<f64>, sigma_deg: f64) -> Vector3<f64> {
+        let s = sigma_deg.to_radians();
+        let mut g = || (0..6).map(|_| rng.random::<f64>()).sum::<f64>() - 3.0;
+        let p = Vector3::new(g(), g(), g()) * s * 0.7;
+        (n + p - n * n.dot(&p)).normalize()
+    }
+
+    fn random_unit(rng: &mut ChaCha8Rng) -> Vector3<f64> {
+        loop {
+            let v = Vector3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            );
+            let l = v.norm();
+            if l > 0.1 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
+
+    fn cloud_of(normals: Vec<Vector3<f64>>) -> OrientedCloud {
+        let n = normals.len();
+        OrientedCloud {
+            normals,
+            confidence: vec![1.0; n],
+            estimated: true,
+        }
+    }
+
+    fn best_match(found: &[Vector3<f64>], truth: &Vector3<f64>) -> f64 {
+        found
+            .iter()
+            .map(|d| axial_angle_deg(d, truth))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    #[test]
+    fn rotated_manhattan_normals_with_outliers() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let rot =
+            Rotation3::from_axis_angle(&Unit::new_normalize(Vector3::new(0.4, -0.7, 0.2)), 0.9);
+        let truth: Vec<Vector3<f64>> = [Vector3::x(), Vector3::y(), Vector3::z()]
+            .iter()
+            .map(|a| rot * a)
+            .collect();
+        let mut normals = Vec::new();
+        for (k, count) in [(0usize, 3000), (1, 2000), (2, 1200)] {
+            for i in 0..count {
+                let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+                normals.push(jitter(&mut rng, truth[k] * sign, 3.0));
+            }
+        }
+        for _ in 0..1500 {
+            normals.push(random_unit(&mut rng));
+        }
+        let axes = dominant_axes(&cloud_of(normals), &AxesConfig::default()).unwrap();
+        assert_eq!(axes.directions.len(), 3);
+        assert!(axes.warnings.is_empty());
+        for t in &truth {
+            let e = best_match(&axes.directions, t);
+            assert!(e < 1.0, "axis error {e}°");
+        }
+        assert!(
+            best_match(&axes.directions[..1], &truth[0]) < 1.0,
+            "d1 is the best supported"
+        );
+        for &(_, _, a) in &axes.pairwise_angles_deg {
+            assert!((a - 90.0).abs() < 2.0, "{a}");
+        }
+        assert_eq!(axes.pairwise_angles_deg.len(), 3);
+    }
+
+    #[test]
+    fn single_plane_gives_one_axis_and_warning_or_error() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let n0 = Vector3::new(1.0, 1.0, 0.0).normalize(); // on the fold's rim
+        let normals: Vec<_> = (0..2000).map(|_| jitter(&mut rng, n0, 2.0)).collect();
+        let cloud = cloud_of(normals);
+        let axes = dominant_axes(&cloud, &AxesConfig::default()).unwrap();
+        assert_eq!(axes.directions.len(), 1);
+        assert_eq!(axes.warnings, vec![AxesWarning::FewerThanThree(1)]);
+        assert!(axial_angle_deg(&axes.directions[0], &n0) < 0.5);
+        assert!(axes.directions[0].iter().all(|v| v.is_finite()));
+        // The rim split must not halve the support.
+        assert!(axes.support[0] > 1900, "{}", axes.support[0]);
+        let cfg = AxesConfig {
+            on_missing: MissingAxes::Error,
+            snap_orthonormal: true,
+            ..Default::default()
+        };
+        assert_eq!(
+            dominant_axes(&cloud, &cfg),
+            Err(AxesError::TooFewAxes { found: 1 })
+        );
+    }
+
+    #[test]
+    fn two_planes_and_snapping() {
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let a = Vector3::new(0.2, 0.3, 0.9).normalize();
+        // 86° from a: snapping must make it exactly perpendicular.
+        let axis = a.cross(&Vector3::x()).normalize();
+        let b = Rotation3::from_axis_angle(&Unit::new_normalize(axis), 86f64.to_radians()) * a;
+        let mut normals: Vec<_> = (0..1500).map(|_| jitter(&mut rng, a, 1.0)).collect();
+        normals.extend((0..1000).map(|_| jitter(&mut rng, b, 1.0)));
+        let cloud = cloud_of(normals);
+        let axes = dominant_axes(&cloud, &AxesConfig::default()).unwrap();
+        assert_eq!(axes.directions.len(), 2);
+        assert_eq!(axes.warnings, vec![AxesWarning::FewerThanThree(2)]);
+        assert!((axes.pairwise_angles_deg[0].2 - 86.0).abs() < 0.5);
+        let snapped = dominant_axes(
+            &cloud,
+            &AxesConfig {
+                snap_orthonormal: true,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert!((snapped.pairwise_angles_deg[0].2 - 90.0).abs() < 1e-9);
+        // Symmetric polar snapping moves each axis by about half the defect.
+        assert!(axial_angle_deg(&snapped.directions[0], &a) < 3.0);
+        assert!(axial_angle_deg(&snapped.directions[1], &b) < 3.0);
+    }
+
+    #[test]
+    fn roof_slopes_found_as_extra_directions() {
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        let slope = 30f64.to_radians();
+        let roof_a = Vector3::new(slope.sin(), 0.0, slope.cos());
+        let roof_b = Vector3::new(-slope.sin(), 0.0, slope.cos());
+        let mut normals = Vec::new();
+        for (d, c) in [
+            (Vector3::x(), 1500),
+            (Vector3::y(), 1500),
+            (Vector3::z(), 800),
+            (roof_a, 900),
+            (roof_b, 900),
+        ] {
+            normals.extend((0..c).map(|_| jitter(&mut rng, d, 2.0)));
+        }
+        let cloud = cloud_of(normals);
+        let plain = dominant_axes(&cloud, &AxesConfig::default()).unwrap();
+        assert_eq!(plain.directions.len(), 3);
+        let cfg = AxesConfig {
+            max_extra_directions: 4,
+            ..Default::default()
+        };
+        let axes = dominant_axes(&cloud, &cfg).unwrap();
+        assert_eq!(axes.num_manhattan, 3);
+        assert_eq!(axes.directions.len(), 5, "{:?}", axes.directions);
+        for t in [roof_a, roof_b] {
+            assert!(best_match(&axes.directions[3..], &t) < 1.0);
+        }
+    }
+
+    #[test]
+    fn deterministic_and_validated() {
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let normals: Vec<_> = (0..4000).map(|_| random_unit(&mut rng)).collect();
+        let cloud = cloud_of(normals);
+        let run = |t| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+                .install(|| dominant_axes(&cloud, &AxesConfig::default()))
+        };
+        assert_eq!(run(1), run(2));
+        // Uniform normals: no direction reaches 2 % support within 5°.
+        assert_eq!(run(1).unwrap().directions.len(), 0);
+        assert!(AxesConfig {
+            num_bins: 1,
+            ..Default::default()
+        }
+        .validate()
+        .is_err());
+        assert_eq!(
+            dominant_axes(&OrientedCloud::default(), &AxesConfig::default()),
+            Err(AxesError::NoNormals(1e-3))
+        );
+    }
+}

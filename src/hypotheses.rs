@@ -1,0 +1,760 @@
+//! Plane hypotheses along the dominant directions (Furukawa et al. 2009, §4.2).
+//!
+//! For each dominant direction `d_k`, the points whose normals lie within
+//! `normal_tolerance_deg` of `±d_k` vote with their offsets `d_k·P`; a 1D mean-shift
+//! (bandwidth `bandwidth_r · R`) finds the density peaks; a peak with at least `min_support`
+//! points within the bandwidth becomes the plane `d_k·X = offset`.
+//!
+//! Cost: offsets are sorted once per direction; with the flat kernel each mean-shift step is
+//! two binary searches on prefix sums (O(log n)), so seeding from every point costs
+//! O(n log n · iterations). The Gaussian kernel sums a ±3σ window per step and seeds from the
+//! points thinned to one per quarter bandwidth, which keeps it near-linear.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::axes::DominantAxes;
+use crate::geometry::Plane;
+
+/// Errors of the plane-hypothesis stage.
+#[derive(Debug, Error, PartialEq)]
+pub enum HypothesesError {
+    /// The configuration is invalid (message says which field and why).
+    #[error("invalid hypotheses config: {0}")]
+    Config(String),
+    /// Input arrays disagree or the scale is not usable.
+    #[error("invalid hypotheses input: {0}")]
+    Input(String),
+}
+
+/// Mean-shift kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Kernel {
+    /// Uniform weight within ± bandwidth (the mode is the mean of the points in the window).
+    #[default]
+    Flat,
+    /// Gaussian with σ = bandwidth, truncated at 3σ.
+    Gaussian,
+}
+
+/// Configuration of [`plane_hypotheses`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct HypothesesConfig {
+    /// A point votes for direction `d_k` if its normal is within this angle (degrees) of ±d_k.
+    pub normal_tolerance_deg: f64,
+    /// Mean-shift bandwidth in units of the sampling scale `R` (paper: R or 2R).
+    pub bandwidth_r: f64,
+    /// Mean-shift kernel.
+    pub kernel: Kernel,
+    /// Minimum number of points within the bandwidth of a peak (paper: 50).
+    pub min_support: usize,
+    /// Relative minimum for small clouds: the effective minimum support is
+    /// `min(min_support, max(MIN_SUPPORT_FLOOR, ceil(min_support_fraction · N)))`, N = number of points.
+    pub min_support_fraction: f64,
+    /// Hypotheses with normals within this angle (degrees) and offsets closer than
+    /// `merge_offset_r · R` are duplicates; the better supported one is kept.
+    pub merge_angle_deg: f64,
+    /// Offset tolerance of duplicate merging, in units of `R`.
+    pub merge_offset_r: f64,
+    /// Points with confidence below this do not vote.
+    pub min_confidence: f64,
+    /// Mean-shift iteration limit per seed.
+    pub max_iterations: usize,
+}
+
+impl Default for HypothesesConfig {
+    fn default() -> Self {
+        HypothesesConfig {
+            normal_tolerance_deg: 25.0,
+            bandwidth_r: 2.0,
+            kernel: Kernel::Flat,
+            min_support: 50,
+            min_support_fraction: 0.01,
+            merge_angle_deg: 1.0,
+            merge_offset_r: 1.0,
+            min_confidence: 1e-3,
+            max_iterations: 100,
+        }
+    }
+}
+
+impl HypothesesConfig {
+    /// Checks the fields.
+    pub fn validate(&self) -> Result<(), HypothesesError> {
+        let bad = |m: String| Err(HypothesesError::Config(m));
+        if !(self.normal_tolerance_deg > 0.0 && self.normal_tolerance_deg < 90.0) {
+            return bad(format!(
+                "normal_tolerance_deg = {} must be in (0, 90)",
+                self.normal_tolerance_deg
+            ));
+        }
+        for (name, v) in [
+            ("bandwidth_r", self.bandwidth_r),
+            ("merge_offset_r", self.merge_offset_r),
+            ("merge_angle_deg", self.merge_angle_deg),
+        ] {
+            if !(v > 0.0 && v.is_finite()) {
+                return bad(format!("{name} = {v} must be positive and finite"));
+            }
+        }
+        if self.min_support == 0 {
+            return bad("min_support must be ≥ 1".into());
+        }
+        for (name, v) in [
+            ("min_support_fraction", self.min_support_fraction),
+            ("min_confidence", self.min_confidence),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return bad(format!("{name} = {v} must be in [0, 1]"));
+            }
+        }
+        if self.max_iterations == 0 {
+            return bad("max_iterations must be ≥ 1".into());
+        }
+        Ok(())
+    }
+
+    /// The support threshold used for a cloud of `n` points.
+    pub fn effective_min_support(&self, n: usize) -> usize {
+        let rel = ((self.min_support_fraction * n as f64).ceil() as usize).max(MIN_SUPPORT_FLOOR);
+        self.min_support.min(rel)
+    }
+}
+
+/// No plane is ever accepted with fewer points than this, whatever the relative rule says.
+pub const MIN_SUPPORT_FLOOR: usize = 10;
+
+/// What the stage reads: oriented points, the dominant axes and the sampling scale.
+#[derive(Debug, Clone, Copy)]
+pub struct HypothesesInput<'a> {
+    /// Point positions (world frame).
+    pub positions: &'a [Vector3<f64>],
+    /// Unit normals, parallel to `positions`.
+    pub normals: &'a [Vector3<f64>],
+    /// Confidence in [0, 1], parallel to `positions`.
+    pub confidence: &'a [f64],
+    /// The dominant directions.
+    pub axes: &'a DominantAxes,
+    /// The sampling scale `R` (world units), see [`crate::scale::sampling_scale`].
+    pub scale: f64,
+}
+
+/// A candidate plane for the per-view labelling.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlaneHypothesis {
+    /// 0-based id, stable: hypotheses are ordered by direction index, then offset.
+    pub id: u32,
+    /// The plane `d_k·X = offset` (unit normal = the dominant direction).
+    pub plane: Plane,
+    /// Index into `DominantAxes::directions` of its normal; `None` for a free plane.
+    pub axis: Option<usize>,
+    /// Points within the bandwidth of the plane (with a normal near its direction).
+    pub support: usize,
+}
+
+/// Sorted 1D samples with prefix sums for O(log n) window statistics.
+struct Offsets {
+    x: Vec<f64>,
+    prefix: Vec<f64>,
+}
+
+impl Offsets {
+    fn new(mut x: Vec<f64>) -> Self {
+        x.sort_unstable_by(f64::total_cmp);
+        let mut prefix = Vec::with_capacity(x.len() + 1);
+        let mut s = 0.0;
+        prefix.push(0.0);
+        for v in &x {
+            s += v;
+            prefix.push(s);
+        }
+        Offsets { x, prefix }
+    }
+
+    /// Index range of the samples in `[lo, hi]`.
+    fn range(&self, lo: f64, hi: f64) -> (usize, usize) {
+        (
+            self.x.partition_point(|&v| v < lo),
+            self.x.partition_point(|&v| v <= hi),
+        )
+    }
+
+    fn count(&self, c: f64, h: f64) -> usize {
+        let (a, b) = self.range(c - h, c + h);
+        b - a
+    }
+
+    /// One mean-shift step from `c`; `None` if the window is empty.
+    fn shift(&self, c: f64, h: f64, kernel: Kernel) -> Option<f64> {
+        match kernel {
+            Kernel::Flat => {
+                let (a, b) = self.range(c - h, c + h);
+                (b > a).then(|| (self.prefix[b] - self.prefix[a]) / (b - a) as f64)
+            }
+            Kernel::Gaussian => {
+                let (a, b) = self.range(c - 3.0 * h, c + 3.0 * h);
+                let inv = 1.0 / (2.0 * h * h);
+                let (mut w, mut s) = (0.0, 0.0);
+                for &v in &self.x[a..b] {
+                    let k = (-(v - c) * (v - c) * inv).exp();
+                    w += k;
+                    s += k * v;
+                }
+                (w > 0.0).then(|| s / w)
+            }
+        }
+    }
+}
+
+/// The modes of the offset density with their supports (sorted by offset).
+fn mean_shift_modes(off: &Offsets, h: f64, kernel: Kernel, max_iter: usize) -> Vec<(f64, usize)> {
+    if off.x.is_empty() {
+        return Vec::new();
+    }
+    // Seeds: every point (flat) or points thinned to one per h/4 cell (Gaussian).
+    let seeds: Vec<f64> = match kernel {
+        Kernel::Flat => {
+            let mut s = off.x.clone();
+            s.dedup();
+            s
+        }
+        Kernel::Gaussian => {
+            let cell = h / 4.0;
+            let mut s: Vec<f64> = Vec::new();
+            let mut last = f64::NEG_INFINITY;
+            for &v in &off.x {
+                if v >= last + cell {
+                    s.push(v);
+                    last = v;
+                }
+            }
+            s
+        }
+    };
+    let tol = 1e-6 * h;
+    let mut modes: Vec<f64> = seeds
+        .par_iter()
+        .map(|&s| {
+            let mut c = s;
+            for _ in 0..max_iter {
+                match off.shift(c, h, kernel) {
+                    Some(next) => {
+                        let done = (next - c).abs() <= tol;
+                        c = next;
+                        if done {
+                            break;
+                        }
+                    }
+                    None => break,
+                }
+            }
+            c
+        })
+        .collect();
+    modes.sort_unstable_by(f64::total_cmp);
+    // Dedupe: modes within h/2 of the first mode of a group are one peak; keep the member
+    // with the largest support (ties: smallest offset).
+    let mut out: Vec<(f64, usize)> = Vec::new();
+    let mut i = 0;
+    while i < modes.len() {
+        let start = modes[i];
+        let mut best = (start, off.count(start, h));
+        let mut j = i + 1;
+        let mut prev = start;
+        while j < modes.len() && modes[j] - start <= h / 2.0 {
+            if modes[j] != prev {
+                let s = off.count(modes[j], h);
+                if s > best.1 {
+                    best = (modes[j], s);
+                }
+                prev = modes[j];
+            }
+            j += 1;
+        }
+        out.push(best);
+        i = j;
+    }
+    out
+}
+
+/// Plane hypotheses along every dominant direction (see the module doc).
+pub fn plane_hypotheses(
+    input: &HypothesesInput<'_>,
+    config: &HypothesesConfig,
+) -> Result<Vec<PlaneHypothesis>, HypothesesError> {
+    config.validate()?;
+    let n = input.positions.len();
+    if input.normals.len() != n || input.confidence.len() != n {
+        return Err(HypothesesError::Input(format!(
+            "{n} positions, {} normals, {} confidences",
+            input.normals.len(),
+            input.confidence.len()
+        )));
+    }
+    if !(input.scale > 0.0 && input.scale.is_finite()) {
+        return Err(HypothesesError::Input(format!(
+            "sampling scale {} must be positive and finite",
+            input.scale
+        )));
+    }
+    let h = config.bandwidth_r * input.scale;
+    let cos_tol = config.normal_tolerance_deg.to_radians().cos();
+    let min_support = config.effective_min_support(n);
+
+    let mut hyps: Vec<PlaneHypothesis> = Vec::new();
+    for (k, d) in input.axes.directions.iter().enumerate() {
+        let len = d.norm();
+        if !(len > 0.0 && len.is_finite()) {
+            return Err(HypothesesError::Input(format!(
+                "direction {k} is zero or not finite"
+            )));
+        }
+        let d = d / len;
+        let offsets: Vec<f64> = (0..n)
+            .filter(|&i| {
+                input.confidence[i] >= config.min_confidence
+                    && input.normals[i].dot(&d).abs() >= cos_tol
+                    && input.positions[i].iter().all(|v| v.is_finite())
+            })
+            .map(|i| d.dot(&input.positions[i]))
+            .collect();
+        let off = Offsets::new(offsets);
+        for (offset, support) in mean_shift_modes(&off, h, config.kernel, config.max_iterations) {
+            if support >= min_support {
+                hyps.push(PlaneHypothesis {
+                    id: 0,
+                    plane: Plane { normal: d, offset },
+                    axis: Some(k),
+                    support,
+                });
+            }
+        }
+    }
+
+    // Merge duplicates (near-identical directions and offsets): keep the better supported.
+    let cos_merge = config.merge_angle_deg.to_radians().cos();
+    let tol = config.merge_offset_r * input.scale;
+    let mut order: Vec<usize> = (0..hyps.len()).collect();
+    order.sort_by(|&a, &b| hyps[b].support.cmp(&hyps[a].support).then(a.cmp(&b)));
+    let mut kept: Vec<usize> = Vec::new();
+    for &i in &order {
+        let dup = kept.iter().any(|&j| {
+            let c = hyps[i].plane.normal.dot(&hyps[j].plane.normal);
+            c.abs() >= cos_merge
+                && (hyps[i].plane.offset - c.signum() * hyps[j].plane.offset).abs() < tol
+        });
+        if !dup {
+            kept.push(i);
+        }
+    }
+    kept.sort_unstable();
+    let mut out: Vec<PlaneHypothesis> = kept.into_iter().map(|i| hyps[i].clone()).collect();
+    // Already ordered by direction then offset (modes come sorted per direction).
+    for (id, h) in out.iter_mut().enumerate() {
+        h.id = id as u32;
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::axes::{dominant_axes, AxesConfig};
+    use crate::normals::tests::{scene_from, test_view};
+    use crate::normals::{estimate_normals, NormalsConfig};
+    use crate::scale::sampling_scale;
+    use nalgebra::{Rotation3, Unit};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// Points on the faces of a box with half-sizes `half`, rotated by `rot` and shifted by
+    /// `center`, with position noise `noise` and `outliers` random points. Returns positions
+    /// and the true face planes.
+    fn box_points(
+        rng: &mut ChaCha8Rng,
+        rot: &Rotation3<f64>,
+        center: Vector3<f64>,
+        half: Vector3<f64>,
+        per_face: usize,
+        noise: f64,
+        outliers: usize,
+    ) -> (Vec<Vector3<f64>>, Vec<Plane>) {
+        let mut pts = Vec::new();
+        let mut planes = Vec::new();
+        for axis in 0..3 {
+            for sign in [-1.0, 1.0] {
+                let mut local_n = Vector3::zeros();
+                local_n[axis] = sign;
+                let n = rot * local_n;
+                planes.push(Plane::through(&(center + n * half[axis]), &n));
+                for _ in 0..per_face {
+                    let mut q = Vector3::zeros();
+                    for a in 0..3 {
+                        q[a] = if a == axis {
+                            sign * half[a] + rng.random_range(-noise..noise)
+                        } else {
+                            rng.random_range(-half[a]..half[a])
+                        };
+                    }
+                    pts.push(center + rot * q);
+                }
+            }
+        }
+        for _ in 0..outliers {
+            let q = Vector3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            );
+            pts.push(center + rot * q.component_mul(&half) * 1.5);
+        }
+        (pts, planes)
+    }
+
+    #[test]
+    fn box_faces_recovered_from_pca_normals() {
+        let mut rng = ChaCha8Rng::seed_from_u64(42);
+        let rot =
+            Rotation3::from_axis_angle(&Unit::new_normalize(Vector3::new(0.3, 0.8, -0.4)), 0.7);
+        let center = Vector3::new(0.3, -0.2, 0.1);
+        let half = Vector3::new(1.0, 0.7, 0.5);
+        let (pts, planes) = box_points(&mut rng, &rot, center, half, 1500, 0.004, 300);
+        // Cameras all around, at ~6 units: R ≈ 6/500 = 0.012.
+        let views: Vec<_> = (0..8)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 8.0;
+                let z = if i % 2 == 0 { 3.0 } else { -3.0 };
+                test_view(i, Vector3::new(6.0 * a.cos(), 6.0 * a.sin(), z))
+            })
+            .collect();
+        let scene = scene_from(views, pts);
+        let r = sampling_scale(&scene).unwrap();
+        assert!(r > 0.005 && r < 0.03, "R = {r}");
+        let oc = estimate_normals(&scene, &NormalsConfig::default()).unwrap();
+        let axes = dominant_axes(&oc, &AxesConfig::default()).unwrap();
+        assert_eq!(axes.directions.len(), 3);
+        for k in 0..3 {
+            let truth = rot * Vector3::ith(k, 1.0);
+            let e = axes
+                .directions
+                .iter()
+                .map(|d| d.dot(&truth).abs().min(1.0).acos().to_degrees())
+                .fold(f64::INFINITY, f64::min);
+            assert!(e < 1.0, "axis {k} error {e}°");
+        }
+        let input = HypothesesInput {
+            positions: &scene.cloud.positions,
+            normals: &oc.normals,
+            confidence: &oc.confidence,
+            axes: &axes,
+            scale: r,
+        };
+        let hyps = plane_hypotheses(&input, &HypothesesConfig::default()).unwrap();
+        assert_eq!(hyps.len(), 6, "{hyps:#?}");
+        for truth in &planes {
+            let matched: Vec<_> = hyps
+                .iter()
+                .filter(|h| {
+                    let c = h.plane.normal.dot(&truth.normal);
+                    c.abs() > 0.999 && (h.plane.offset - c.signum() * truth.offset).abs() < r
+                })
+                .collect();
+            assert_eq!(matched.len(), 1, "plane {truth:?}: {matched:?}");
+            assert!(matched[0].support > 1000);
+        }
+        for (i, h) in hyps.iter().enumerate() {
+            assert_eq!(h.id as usize, i);
+        }
+        // Stable order: by direction, then offset.
+        for w in hyps.windows(2) {
+            assert!(
+                w[0].axis < w[1].axis
+                    || (w[0].axis == w[1].axis && w[0].plane.offset < w[1].plane.offset)
+            );
+        }
+    }
+
+    #[test]
+    fn house_with_roof_slopes_end_to_end() {
+        // Walls x, y ∈ [-1, 1], z ∈ [0, 1], floor z = 0, gable roof at 30° over x.
+        let mut rng = ChaCha8Rng::seed_from_u64(17);
+        let slope = 30f64.to_radians();
+        let mut pts = Vec::new();
+        let mut u = |a: f64, b: f64| rng.random_range(a..b);
+        let noise = 0.003;
+        for _ in 0..2000 {
+            for s in [-1.0, 1.0] {
+                pts.push(Vector3::new(
+                    s + u(-noise, noise),
+                    u(-1.0, 1.0),
+                    u(0.0, 1.0),
+                ));
+                pts.push(Vector3::new(
+                    u(-1.0, 1.0),
+                    s + u(-noise, noise),
+                    u(0.0, 1.0),
+                ));
+            }
+        }
+        for _ in 0..2500 {
+            pts.push(Vector3::new(u(-1.0, 1.0), u(-1.0, 1.0), u(-noise, noise)));
+        }
+        for _ in 0..1500 {
+            for s in [-1.0, 1.0] {
+                let x: f64 = u(0.0, 1.0);
+                pts.push(Vector3::new(
+                    s * x,
+                    u(-1.0, 1.0),
+                    1.0 + (1.0 - x) * slope.tan() + u(-noise, noise),
+                ));
+            }
+        }
+        let truth = [
+            Plane::new(Vector3::x(), 1.0),
+            Plane::new(Vector3::x(), -1.0),
+            Plane::new(Vector3::y(), 1.0),
+            Plane::new(Vector3::y(), -1.0),
+            Plane::new(Vector3::z(), 0.0),
+            Plane::through(
+                &Vector3::new(1.0, 0.0, 1.0),
+                &Vector3::new(slope.sin(), 0.0, slope.cos()),
+            ),
+            Plane::through(
+                &Vector3::new(-1.0, 0.0, 1.0),
+                &Vector3::new(-slope.sin(), 0.0, slope.cos()),
+            ),
+        ];
+        let views: Vec<_> = (0..8)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 8.0 + 0.2;
+                let z = if i % 2 == 0 { 4.0 } else { -3.0 };
+                test_view(i, Vector3::new(6.0 * a.cos(), 6.0 * a.sin(), z))
+            })
+            .collect();
+        let scene = scene_from(views, pts);
+        let r = sampling_scale(&scene).unwrap();
+        let oc = estimate_normals(&scene, &NormalsConfig::default()).unwrap();
+        let plain = dominant_axes(&oc, &AxesConfig::default()).unwrap();
+        assert_eq!(plain.directions.len(), 3);
+        let axes = dominant_axes(
+            &oc,
+            &AxesConfig {
+                max_extra_directions: 4,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(axes.directions.len(), 5, "{:?}", axes.directions);
+        let input = HypothesesInput {
+            positions: &scene.cloud.positions,
+            normals: &oc.normals,
+            confidence: &oc.confidence,
+            axes: &axes,
+            scale: r,
+        };
+        let hyps = plane_hypotheses(&input, &HypothesesConfig::default()).unwrap();
+        let mut matched_ids = Vec::new();
+        for t in &truth {
+            let m: Vec<_> = hyps
+                .iter()
+                .filter(|h| {
+                    let c = h.plane.normal.dot(&t.normal);
+                    c.abs() > 0.9995 && (h.plane.offset - c.signum() * t.offset).abs() < r
+                })
+                .collect();
+            assert_eq!(m.len(), 1, "plane {t:?}: {m:?}");
+            matched_ids.push(m[0].id);
+        }
+        // Anything else (e.g. the ridge line, whose PCA normals point up) is weakly supported.
+        let weakest_true = matched_ids
+            .iter()
+            .map(|&i| hyps[i as usize].support)
+            .min()
+            .unwrap();
+        for h in hyps.iter().filter(|h| !matched_ids.contains(&h.id)) {
+            assert!(h.support * 4 < weakest_true, "spurious {h:?}");
+        }
+    }
+
+    fn manual_axes(dirs: Vec<Vector3<f64>>) -> DominantAxes {
+        let m = dirs.len();
+        DominantAxes {
+            support: vec![0; m],
+            directions: dirs,
+            pairwise_angles_deg: vec![],
+            num_manhattan: m,
+            warnings: vec![],
+        }
+    }
+
+    #[test]
+    fn parallel_planes_gaussian_and_flat_agree_and_small_clouds() {
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let d = Vector3::new(0.0, 0.6, 0.8);
+        let r = 0.01;
+        // Three parallel planes 10R apart, 200 / 80 / 30 points, σ ≈ R/3, plus spread noise.
+        let mut pts = Vec::new();
+        for (off, c) in [(0.5, 200), (0.6, 80), (0.7, 30)] {
+            for _ in 0..c {
+                let e = rng.random_range(-0.005..0.005);
+                let t = Vector3::new(rng.random_range(-1.0..1.0), 0.8, -0.6)
+                    * rng.random_range(-1.0..1.0);
+                pts.push(
+                    d * (off + e)
+                        + Vector3::new(t.x, 0.0, 0.0)
+                        + Vector3::new(0.0, 0.8, -0.6) * t.y,
+                );
+            }
+        }
+        for _ in 0..100 {
+            pts.push(d * rng.random_range(-2.0..2.0));
+        }
+        let n = pts.len();
+        let normals = vec![d; n];
+        let conf = vec![1.0; n];
+        let axes = manual_axes(vec![d]);
+        let input = HypothesesInput {
+            positions: &pts,
+            normals: &normals,
+            confidence: &conf,
+            axes: &axes,
+            scale: r,
+        };
+        let cfg = HypothesesConfig::default();
+        // 410 points: effective minimum min(50, max(10, ceil(4.1))) = 10.
+        assert_eq!(cfg.effective_min_support(n), MIN_SUPPORT_FLOOR);
+        let flat = plane_hypotheses(&input, &cfg).unwrap();
+        let offs: Vec<f64> = flat.iter().map(|h| h.plane.offset).collect();
+        assert_eq!(offs.len(), 3, "{flat:?}");
+        for (o, t) in offs.iter().zip([0.5, 0.6, 0.7]) {
+            assert!((o - t).abs() < r, "{o} vs {t}");
+        }
+        let gauss = plane_hypotheses(
+            &input,
+            &HypothesesConfig {
+                kernel: Kernel::Gaussian,
+                bandwidth_r: 1.0,
+                ..cfg.clone()
+            },
+        )
+        .unwrap();
+        assert_eq!(gauss.len(), 3, "{gauss:?}");
+        for (g, f) in gauss.iter().zip(&flat) {
+            assert!((g.plane.offset - f.plane.offset).abs() < r);
+        }
+        // Paper threshold 50 without the relative rule drops the 30-point plane.
+        let strict = plane_hypotheses(
+            &input,
+            &HypothesesConfig {
+                min_support_fraction: 1.0,
+                ..cfg.clone()
+            },
+        )
+        .unwrap();
+        assert_eq!(strict.len(), 2);
+    }
+
+    #[test]
+    fn duplicate_directions_merge_and_bad_input_errors() {
+        let d = Vector3::z();
+        let d2 = Vector3::new(0.001, 0.0, 1.0).normalize();
+        let pts: Vec<_> = (0..100)
+            .map(|i| Vector3::new(i as f64 * 0.01, 0.0, 1.0))
+            .collect();
+        let normals = vec![d; 100];
+        let conf = vec![1.0; 100];
+        let axes = manual_axes(vec![d, d2]);
+        let mut input = HypothesesInput {
+            positions: &pts,
+            normals: &normals,
+            confidence: &conf,
+            axes: &axes,
+            scale: 0.01,
+        };
+        let hyps = plane_hypotheses(&input, &HypothesesConfig::default()).unwrap();
+        assert_eq!(hyps.len(), 1, "{hyps:?}");
+        assert_eq!(hyps[0].support, 100);
+        assert!((hyps[0].plane.offset - 1.0).abs() < 1e-12);
+        input.scale = 0.0;
+        assert!(plane_hypotheses(&input, &HypothesesConfig::default()).is_err());
+        input.scale = 0.01;
+        input.confidence = &conf[..3];
+        assert!(plane_hypotheses(&input, &HypothesesConfig::default()).is_err());
+        assert!(HypothesesConfig {
+            bandwidth_r: -1.0,
+            ..Default::default()
+        }
+        .validate()
+        .is_err());
+    }
+
+    #[test]
+    fn deterministic_across_thread_counts() {
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), 0.3);
+        let (pts, _) = box_points(
+            &mut rng,
+            &rot,
+            Vector3::zeros(),
+            Vector3::new(1.0, 1.0, 1.0),
+            400,
+            0.01,
+            200,
+        );
+        let normals: Vec<_> = pts
+            .iter()
+            .map(|p| (rot.inverse() * p).map(|v| if v.abs() > 0.98 { v.signum() } else { 0.0 }))
+            .map(|v| {
+                if v.norm() == 1.0 {
+                    rot * v
+                } else {
+                    Vector3::x()
+                }
+            })
+            .collect();
+        let conf = vec![1.0; pts.len()];
+        let axes = manual_axes(vec![rot * Vector3::x(), rot * Vector3::y(), Vector3::z()]);
+        let input = HypothesesInput {
+            positions: &pts,
+            normals: &normals,
+            confidence: &conf,
+            axes: &axes,
+            scale: 0.01,
+        };
+        let run = |t| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+                .install(|| plane_hypotheses(&input, &HypothesesConfig::default()).unwrap())
+        };
+        let a = run(1);
+        assert_eq!(a, run(2));
+        assert_eq!(a.len(), 6, "{a:?}");
+    }
+
+    /// Near-linear cost check (run with `--ignored`): 200k offsets on 40 planes.
+    #[test]
+    #[ignore]
+    fn mean_shift_timing() {
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let x: Vec<f64> = (0..200_000)
+            .map(|i| (i % 40) as f64 * 0.5 + rng.random_range(-0.01..0.01))
+            .collect();
+        for kernel in [Kernel::Flat, Kernel::Gaussian] {
+            let t = std::time::Instant::now();
+            let modes = mean_shift_modes(&Offsets::new(x.clone()), 0.02, kernel, 100);
+            let strong = modes.iter().filter(|m| m.1 >= 50).count();
+            eprintln!(
+                "{kernel:?}: {} modes, {strong} strong, {:?}",
+                modes.len(),
+                t.elapsed()
+            );
+            assert_eq!(strong, 40);
+        }
+    }
+}
