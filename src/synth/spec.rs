@@ -841,7 +841,7 @@ impl SceneSpec {
                     ..
                 } => {
                     check_material(material)?;
-                    if !finite(center) || !(radius.is_finite() && *radius > 0.0) {
+                    if !(finite(center) && radius.is_finite() && *radius > 0.0) {
                         return Err(fail(
                             place,
                             format!("radius must be positive, got {radius}"),

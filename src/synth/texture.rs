@@ -215,7 +215,8 @@ impl Material {
         }
         let c0 = luminance(&self.albedo(s, t));
         let mut best: f64 = 0.0;
-        const DIRS: [(f64, f64); 4] = [(1.0, 0.0), (0.0, 1.0), (0.7071, 0.7071), (0.7071, -0.7071)];
+        const H: f64 = std::f64::consts::FRAC_1_SQRT_2;
+        const DIRS: [(f64, f64); 4] = [(1.0, 0.0), (0.0, 1.0), (H, H), (H, -H)];
         for r in [radius, 0.5 * radius] {
             for (dx, dy) in DIRS {
                 for sign in [1.0, -1.0] {
