@@ -17,6 +17,7 @@ pub mod raster;
 pub mod scale;
 pub mod scene;
 pub mod synth;
+pub mod workspace;
 
 pub use geometry::{Camera, CameraModel, Plane, Rigid3};
 pub use raster::ImageF32;
