@@ -1,0 +1,139 @@
+//! End-to-end tests of the `planemap` binary on tiny synthetic scenes.
+
+use std::path::Path;
+use std::process::Command;
+
+use planemap::io::colmap::read_model;
+use planemap::io::labelpng::read_label_png;
+use planemap::io::pfm::read_pfm_path;
+
+fn planemap() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_planemap"))
+}
+
+fn synth_demo(dir: &Path) {
+    let out = planemap()
+        .args(["-q", "synth", "scenes/demo.toml", "--width", "96", "--height", "72", "-o"])
+        .arg(dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "synth failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn synth_writes_a_consistent_workspace() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("demo");
+    synth_demo(&dir);
+    let model = read_model(&dir.join("sparse")).unwrap();
+    let scene = model.to_scene(Some(&dir.join("images"))).unwrap();
+    assert!(scene.views.len() >= 4);
+    assert!(scene.cloud.len() >= 50, "{} points", scene.cloud.len());
+    for view in &scene.views {
+        assert_eq!((view.camera.width, view.camera.height), (96, 72));
+        let img = view.load_image().unwrap();
+        assert_eq!(img.len_pixels(), 96 * 72);
+        let stem = view.name.trim_end_matches(".png");
+        let depth = read_pfm_path(&dir.join(format!("gt/depth/{stem}.pfm"))).unwrap();
+        assert_eq!((depth.width, depth.height, depth.channels), (96, 72, 1));
+        let (w, h, ids) = read_label_png(&dir.join(format!("gt/planes/{stem}.png"))).unwrap();
+        assert_eq!((w, h, ids.len()), (96, 72, 96 * 72));
+    }
+    // Sparse points lie on the ground-truth surface of the views that see them (within the
+    // configured noise), outliers aside: most of them agree with gt depth to 2%.
+    let mut agree = 0usize;
+    let mut total = 0usize;
+    for (i, p) in scene.cloud.positions.iter().enumerate() {
+        let v = &scene.views[scene.cloud.tracks[i][0] as usize];
+        let (xy, z) = v.project(p).unwrap();
+        let stem = v.name.trim_end_matches(".png");
+        let depth = read_pfm_path(&dir.join(format!("gt/depth/{stem}.pfm"))).unwrap();
+        let (x, y) = (xy.x as u32, xy.y as u32);
+        if x < 96 && y < 72 {
+            total += 1;
+            let gz = depth.get(x, y, 0) as f64;
+            if (gz - z).abs() <= 0.02 * gz {
+                agree += 1;
+            }
+        }
+    }
+    assert!(agree as f64 >= 0.85 * total as f64, "{agree}/{total}");
+    let planes: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("gt/planes.json")).unwrap())
+            .unwrap();
+    assert!(planes.as_array().unwrap().len() >= 5);
+}
+
+#[test]
+fn info_reports_the_model() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("demo");
+    synth_demo(&dir);
+    let out = planemap()
+        .arg("info")
+        .arg(dir.join("sparse"))
+        .arg("--images")
+        .arg(dir.join("images"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("images: "), "{text}");
+    assert!(text.contains("warnings: none"), "{text}");
+    // Remove an image: info must warn and name it.
+    let first = std::fs::read_dir(dir.join("images"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    std::fs::remove_file(&first).unwrap();
+    let out = planemap()
+        .arg("info")
+        .arg(dir.join("sparse"))
+        .arg("--images")
+        .arg(dir.join("images"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    let name = first.file_name().unwrap().to_string_lossy();
+    assert!(text.contains(&*name), "{text}");
+}
+
+#[test]
+fn bad_scene_file_fails_with_the_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("bad.toml");
+    let text = std::fs::read_to_string("scenes/demo.toml").unwrap();
+    // Break a value somewhere past the first line.
+    let broken = text.replacen(" = ", " = = ", 3);
+    std::fs::write(&scene, broken).unwrap();
+    let out = planemap()
+        .arg("synth")
+        .arg(&scene)
+        .arg("-o")
+        .arg(tmp.path().join("out"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.toml"), "{err}");
+    assert!(err.contains("line") || err.contains(":"), "{err}");
+}
+
+#[test]
+fn bad_model_fails_without_panic() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("cameras.txt"), "1 FISHEYE 10 10 1 2 3\n").unwrap();
+    std::fs::write(tmp.path().join("images.txt"), "").unwrap();
+    std::fs::write(tmp.path().join("points3D.txt"), "").unwrap();
+    let out = planemap().arg("info").arg(tmp.path()).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("cameras.txt") && err.contains("FISHEYE"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
