@@ -937,13 +937,34 @@ impl SceneSpec {
                                     targets.len()
                                 ));
                             }
+                            for (k, p) in positions.iter().enumerate() {
+                                let t = if targets.len() == 1 {
+                                    &targets[0]
+                                } else {
+                                    &targets[k]
+                                };
+                                if dist2(p, t) < 1e-12 {
+                                    return bad(&format!("positions[{k}] equals its target"));
+                                }
+                            }
                         }
                         (true, false) => {
                             if *count == 0 {
                                 return bad("count must be ≥ 1 (zero views)");
                             }
-                            if path.len() < 2 && target.is_none() {
-                                return bad("a path needs ≥ 2 points, or a target");
+                            match target {
+                                None if path.len() < 2 => {
+                                    return bad("a path needs ≥ 2 points, or a target");
+                                }
+                                None if path.windows(2).any(|w| dist2(&w[0], &w[1]) < 1e-12) => {
+                                    return bad(
+                                        "path has repeated consecutive points (no view direction)",
+                                    );
+                                }
+                                Some(t) if path.iter().any(|p| dist2(p, t) < 1e-12) => {
+                                    return bad("a path point equals the target");
+                                }
+                                _ => {}
                             }
                         }
                         _ => return bad("give either positions (+ targets) or path (+ count)"),
@@ -988,6 +1009,10 @@ impl SceneSpec {
         }
         Ok(())
     }
+}
+
+fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    (0..3).map(|k| (a[k] - b[k]).powi(2)).sum()
 }
 
 fn check_color(c: &[f64; 3]) -> Result<(), String> {
