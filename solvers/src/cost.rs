@@ -16,7 +16,7 @@
 //!   residues of the order of the rounding error, so the computed cut is minimal only up to
 //!   roughly `n_arcs * eps * max_capacity`. Energies are accumulated in `f64`.
 use std::fmt::Debug;
-use std::ops::{Add, AddAssign, Neg, Sub, SubAssign};
+use std::ops::{Add, AddAssign, Mul, Neg, Sub, SubAssign};
 
 /// A scalar usable as an energy term and as a max-flow capacity.
 pub trait Cost:
@@ -24,6 +24,7 @@ pub trait Cost:
     + PartialOrd
     + Add<Output = Self>
     + Sub<Output = Self>
+    + Mul<Output = Self>
     + AddAssign
     + SubAssign
     + Neg<Output = Self>

@@ -100,14 +100,19 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         self.changed.clear();
     }
 
-    /// Mutable access to the raw arc capacities and signed terminal capacities, for fast
-    /// builders that fill a whole network at once. `tr[i] > 0` is a source→i capacity,
-    /// `tr[i] < 0` an i→sink capacity of `-tr[i]`; the constant `offset` is added to the
-    /// reported flow (use it for the `min(source, sink)` parts already cancelled). Only valid
-    /// before the first [`MaxFlow::maxflow`] after a [`MaxFlow::reset`].
-    pub fn raw_mut(&mut self) -> (&Tp, &mut [T], &mut [T], &mut T::Acc) {
-        debug_assert!(!self.solved);
-        (&self.topo, &mut self.cap, &mut self.tr, &mut self.flow)
+    /// Starts rebuilding the whole network in place: forgets the flow and the trees and
+    /// hands out the topology, the arc capacities and the signed terminal capacities
+    /// (`tr[i] > 0`: source→i capacity, `tr[i] < 0`: i→sink capacity `-tr[i]`). The caller
+    /// must overwrite **every** arc capacity that the topology enumerates and every `tr`
+    /// (this avoids a separate zeroing pass). Used by the move solvers.
+    pub fn rebuild(&mut self) -> (&Tp, &mut [T], &mut [T]) {
+        self.flow = T::Acc::default();
+        self.solved = false;
+        for &i in &self.changed {
+            self.is_changed[i as usize] = false;
+        }
+        self.changed.clear();
+        (&self.topo, &mut self.cap, &mut self.tr)
     }
 
     /// Sets the residual capacity of one arc (before the first solve).
