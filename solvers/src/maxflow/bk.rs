@@ -22,6 +22,51 @@ pub enum Segment {
     Sink,
 }
 
+/// Search-tree state of one node, 16 bytes (four per cache line).
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    /// Arc to the parent in the search tree, or `NONE` / `TERMINAL` / `ORPHAN`.
+    parent: u32,
+    /// Next node in the active queue (`NONE`: not queued; itself: last).
+    next: u32,
+    /// Time stamp of the last distance update.
+    ts: u32,
+    /// Distance to the terminal (bits 0..31) and tree bit (bit 31: sink tree).
+    dist_sink: u32,
+}
+
+const SINK_BIT: u32 = 1 << 31;
+
+impl Default for Node {
+    fn default() -> Self {
+        Node {
+            parent: NONE,
+            next: NONE,
+            ts: 0,
+            dist_sink: 0,
+        }
+    }
+}
+
+impl Node {
+    #[inline(always)]
+    fn sink(&self) -> bool {
+        self.dist_sink & SINK_BIT != 0
+    }
+    #[inline(always)]
+    fn set_sink(&mut self, s: bool) {
+        self.dist_sink = (self.dist_sink & !SINK_BIT) | if s { SINK_BIT } else { 0 };
+    }
+    #[inline(always)]
+    fn dist(&self) -> u32 {
+        self.dist_sink & !SINK_BIT
+    }
+    #[inline(always)]
+    fn set_dist(&mut self, d: u32) {
+        self.dist_sink = (self.dist_sink & SINK_BIT) | d;
+    }
+}
+
 /// Boykov–Kolmogorov max-flow solver over the arc layout `Tp`, capacities of type `T`.
 ///
 /// Build the network with [`MaxFlow::add_tweights`] and [`MaxFlow::set_arc`] (or the grid
@@ -30,18 +75,14 @@ pub enum Segment {
 /// [`MaxFlow::add_arc_capacity`] (increases only) may be called again and the next
 /// [`MaxFlow::maxflow`] reuses the search trees and the flow already pushed.
 ///
-/// Memory: per node `size_of::<T>() + 17` bytes (+ the topology's own), per arc
+/// Memory: per node `size_of::<T>() + 16` bytes (+ 1 byte bookkeeping for tree reuse) (+ the topology's own), per arc
 /// `size_of::<T>()` bytes.
 #[derive(Clone, Debug)]
 pub struct MaxFlow<T: Cost, Tp: Topology> {
     topo: Tp,
     cap: Vec<T>,
     tr: Vec<T>,
-    parent: Vec<u32>,
-    next: Vec<u32>,
-    ts: Vec<u32>,
-    dist: Vec<u32>,
-    sink: Vec<bool>,
+    nodes: Vec<Node>,
     q_first: u32,
     q_last: u32,
     orphans: Vec<u32>,
@@ -60,11 +101,7 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         MaxFlow {
             cap: vec![T::ZERO; m],
             tr: vec![T::ZERO; n],
-            parent: vec![NONE; n],
-            next: vec![NONE; n],
-            ts: vec![0; n],
-            dist: vec![0; n],
-            sink: vec![false; n],
+            nodes: vec![Node::default(); n],
             q_first: NONE,
             q_last: NONE,
             orphans: Vec::new(),
@@ -171,7 +208,7 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
     #[inline]
     pub fn segment(&self, node: u32) -> Segment {
         let i = node as usize;
-        if self.parent[i] != NONE && self.sink[i] {
+        if self.nodes[i].parent != NONE && self.nodes[i].sink() {
             Segment::Sink
         } else {
             Segment::Source
@@ -183,7 +220,7 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
     #[inline]
     pub fn is_sink(&self, node: u32) -> bool {
         let i = node as usize;
-        self.parent[i] != NONE && self.sink[i]
+        self.nodes[i].parent != NONE && self.nodes[i].sink()
     }
 
     /// Panics if a passive-tree invariant is broken (tests only).
@@ -191,23 +228,23 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
     pub(crate) fn check_invariants(&self) {
         for p in 0..self.tr.len() as u32 {
             let pu = p as usize;
-            if self.parent[pu] == NONE {
+            if self.nodes[pu].parent == NONE {
                 assert_eq!(self.tr[pu], T::ZERO, "free node {p} with terminal residue");
                 continue;
             }
-            assert!(self.parent[pu] != ORPHAN);
+            assert!(self.nodes[pu].parent != ORPHAN);
             let mut arcs = self.topo.arcs(p);
             while let Some(a) = arcs.next() {
                 let q = self.topo.head(a) as usize;
-                if !self.sink[pu] && self.cap[a as usize].is_pos() {
+                if !self.nodes[pu].sink() && self.cap[a as usize].is_pos() {
                     assert!(
-                        self.parent[q] != NONE && !self.sink[q],
+                        self.nodes[q].parent != NONE && !self.nodes[q].sink(),
                         "source {p} -> {q} open"
                     );
                 }
-                if self.sink[pu] && self.cap[self.topo.sister(a) as usize].is_pos() {
+                if self.nodes[pu].sink() && self.cap[self.topo.sister(a) as usize].is_pos() {
                     assert!(
-                        self.parent[q] != NONE && self.sink[q],
+                        self.nodes[q].parent != NONE && self.nodes[q].sink(),
                         "{q} -> sink {p} open"
                     );
                 }
@@ -217,13 +254,13 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
 
     #[inline(always)]
     fn activate(&mut self, i: u32) {
-        if self.next[i as usize] == NONE {
+        if self.nodes[i as usize].next == NONE {
             if self.q_last == NONE {
                 self.q_first = i;
             } else {
-                self.next[self.q_last as usize] = i;
+                self.nodes[self.q_last as usize].next = i;
             }
-            self.next[i as usize] = i;
+            self.nodes[i as usize].next = i;
             self.q_last = i;
         }
     }
@@ -235,41 +272,76 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
             if i == NONE {
                 return None;
             }
-            let n = self.next[i as usize];
+            let n = self.nodes[i as usize].next;
             if n == i {
                 self.q_first = NONE;
                 self.q_last = NONE;
             } else {
                 self.q_first = n;
             }
-            self.next[i as usize] = NONE;
-            if self.parent[i as usize] != NONE {
+            self.nodes[i as usize].next = NONE;
+            if self.nodes[i as usize].parent != NONE {
                 return Some(i);
             }
         }
     }
 
+    /// Saturates the length-two paths source → p → q → sink in one linear pass before the
+    /// trees are grown: on image grids most of the flow takes such paths, and pushing it
+    /// here is far cheaper than discovering each path by tree growth.
+    fn push_short_paths(&mut self) {
+        for p in 0..self.tr.len() as u32 {
+            let mut rp = self.tr[p as usize];
+            if !rp.is_pos() {
+                continue;
+            }
+            let mut arcs = self.topo.arcs(p);
+            while let Some(a) = arcs.next() {
+                let c = self.cap[a as usize];
+                if !c.is_pos() {
+                    continue;
+                }
+                let q = self.topo.head(a) as usize;
+                let rq = -self.tr[q];
+                if !rq.is_pos() {
+                    continue;
+                }
+                let b = rp.min_of(rq).min_of(c);
+                rp -= b;
+                self.tr[q] += b;
+                self.cap[a as usize] = c - b;
+                self.cap[self.topo.sister(a) as usize] += b;
+                self.flow += b.widen();
+                if !rp.is_pos() {
+                    break;
+                }
+            }
+            self.tr[p as usize] = rp;
+        }
+    }
+
     fn init_trees(&mut self) {
+        self.push_short_paths();
         self.q_first = NONE;
         self.q_last = NONE;
         self.time = 0;
         self.orphans.clear();
         for i in 0..self.tr.len() {
-            self.next[i] = NONE;
-            self.ts[i] = 0;
+            self.nodes[i].next = NONE;
+            self.nodes[i].ts = 0;
             let r = self.tr[i];
             if r > T::ZERO {
-                self.parent[i] = TERMINAL;
-                self.sink[i] = false;
-                self.dist[i] = 1;
+                self.nodes[i].parent = TERMINAL;
+                self.nodes[i].set_sink(false);
+                self.nodes[i].set_dist(1);
                 self.activate(i as u32);
             } else if r < T::ZERO {
-                self.parent[i] = TERMINAL;
-                self.sink[i] = true;
-                self.dist[i] = 1;
+                self.nodes[i].parent = TERMINAL;
+                self.nodes[i].set_sink(true);
+                self.nodes[i].set_dist(1);
                 self.activate(i as u32);
             } else {
-                self.parent[i] = NONE;
+                self.nodes[i].parent = NONE;
             }
         }
         for &i in &self.changed {
@@ -286,32 +358,32 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
             self.is_changed[i as usize] = false;
             let iu = i as usize;
             let r = self.tr[iu];
-            let in_tree = self.parent[iu] != NONE;
-            let was_sink = self.sink[iu];
+            let in_tree = self.nodes[iu].parent != NONE;
+            let was_sink = self.nodes[iu].sink();
             if r != T::ZERO {
                 let want_sink = r < T::ZERO;
                 if in_tree && want_sink != was_sink {
                     // i changes tree: its children lose their path to the old terminal.
                     self.orphan_children(i, was_sink);
                 }
-                self.parent[iu] = TERMINAL;
-                self.sink[iu] = want_sink;
-                self.dist[iu] = 1;
-                self.ts[iu] = self.time;
+                self.nodes[iu].parent = TERMINAL;
+                self.nodes[iu].set_sink(want_sink);
+                self.nodes[iu].set_dist(1);
+                self.nodes[iu].ts = self.time;
                 self.activate(i);
-            } else if in_tree && self.parent[iu] == TERMINAL {
-                self.parent[iu] = ORPHAN;
+            } else if in_tree && self.nodes[iu].parent == TERMINAL {
+                self.nodes[iu].parent = ORPHAN;
                 self.orphans.push(i);
             } else if in_tree {
                 // An arc capacity changed: let i look for new paths.
                 self.activate(i);
             }
-            if !in_tree || self.parent[iu] == NONE {
+            if !in_tree || self.nodes[iu].parent == NONE {
                 // A free node next to a raised arc: wake its tree neighbours.
                 let mut arcs = self.topo.arcs(i);
                 while let Some(a) = arcs.next() {
                     let j = self.topo.head(a);
-                    if self.parent[j as usize] != NONE {
+                    if self.nodes[j as usize].parent != NONE {
                         self.activate(j);
                     }
                 }
@@ -326,14 +398,14 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         let mut arcs = self.topo.arcs(i);
         while let Some(a) = arcs.next() {
             let j = self.topo.head(a) as usize;
-            let pj = self.parent[j];
-            if self.sink[j] == tree_sink
+            let pj = self.nodes[j].parent;
+            if self.nodes[j].sink() == tree_sink
                 && pj != NONE
                 && pj != TERMINAL
                 && pj != ORPHAN
                 && self.topo.head(pj) == i
             {
-                self.parent[j] = ORPHAN;
+                self.nodes[j].parent = ORPHAN;
                 self.orphans.push(j as u32);
             }
         }
@@ -350,7 +422,7 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         self.solved = true;
         let mut current = NONE;
         loop {
-            let i = if current != NONE && self.parent[current as usize] != NONE {
+            let i = if current != NONE && self.nodes[current as usize].parent != NONE {
                 current
             } else {
                 match self.pop_active() {
@@ -377,25 +449,25 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
     #[inline(always)]
     fn grow(&mut self, i: u32) -> u32 {
         let iu = i as usize;
-        let (ti, di) = (self.ts[iu], self.dist[iu]);
+        let (ti, di) = (self.nodes[iu].ts, self.nodes[iu].dist());
         let mut arcs = self.topo.arcs(i);
-        if !self.sink[iu] {
+        if !self.nodes[iu].sink() {
             while let Some(a) = arcs.next() {
                 if self.cap[a as usize].is_pos() {
                     let j = self.topo.head(a);
                     let ju = j as usize;
-                    if self.parent[ju] == NONE {
-                        self.sink[ju] = false;
-                        self.parent[ju] = self.topo.sister(a);
-                        self.ts[ju] = ti;
-                        self.dist[ju] = di + 1;
+                    if self.nodes[ju].parent == NONE {
+                        self.nodes[ju].set_sink(false);
+                        self.nodes[ju].parent = self.topo.sister(a);
+                        self.nodes[ju].ts = ti;
+                        self.nodes[ju].set_dist(di + 1);
                         self.activate(j);
-                    } else if self.sink[ju] {
+                    } else if self.nodes[ju].sink() {
                         return a;
-                    } else if self.ts[ju] <= ti && self.dist[ju] > di {
-                        self.parent[ju] = self.topo.sister(a);
-                        self.ts[ju] = ti;
-                        self.dist[ju] = di + 1;
+                    } else if self.nodes[ju].ts <= ti && self.nodes[ju].dist() > di {
+                        self.nodes[ju].parent = self.topo.sister(a);
+                        self.nodes[ju].ts = ti;
+                        self.nodes[ju].set_dist(di + 1);
                     }
                 }
             }
@@ -405,18 +477,18 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
                 if self.cap[s as usize].is_pos() {
                     let j = self.topo.head(a);
                     let ju = j as usize;
-                    if self.parent[ju] == NONE {
-                        self.sink[ju] = true;
-                        self.parent[ju] = s;
-                        self.ts[ju] = ti;
-                        self.dist[ju] = di + 1;
+                    if self.nodes[ju].parent == NONE {
+                        self.nodes[ju].set_sink(true);
+                        self.nodes[ju].parent = s;
+                        self.nodes[ju].ts = ti;
+                        self.nodes[ju].set_dist(di + 1);
                         self.activate(j);
-                    } else if !self.sink[ju] {
+                    } else if !self.nodes[ju].sink() {
                         return s;
-                    } else if self.ts[ju] <= ti && self.dist[ju] > di {
-                        self.parent[ju] = s;
-                        self.ts[ju] = ti;
-                        self.dist[ju] = di + 1;
+                    } else if self.nodes[ju].ts <= ti && self.nodes[ju].dist() > di {
+                        self.nodes[ju].parent = s;
+                        self.nodes[ju].ts = ti;
+                        self.nodes[ju].set_dist(di + 1);
                     }
                 }
             }
@@ -430,7 +502,7 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         // Source side: arcs point from child to parent; flow runs along their sisters.
         let mut i = self.topo.head(self.topo.sister(mid));
         loop {
-            let pa = self.parent[i as usize];
+            let pa = self.nodes[i as usize].parent;
             if pa == TERMINAL {
                 break;
             }
@@ -440,7 +512,7 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         b = b.min_of(self.tr[i as usize]);
         let mut i = self.topo.head(mid);
         loop {
-            let pa = self.parent[i as usize];
+            let pa = self.nodes[i as usize].parent;
             if pa == TERMINAL {
                 break;
             }
@@ -454,7 +526,7 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         self.cap[mid as usize] -= b;
         let mut i = self.topo.head(ms);
         loop {
-            let pa = self.parent[i as usize];
+            let pa = self.nodes[i as usize].parent;
             if pa == TERMINAL {
                 break;
             }
@@ -462,19 +534,19 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
             self.cap[pa as usize] += b;
             self.cap[up as usize] -= b;
             if !self.cap[up as usize].is_pos() {
-                self.parent[i as usize] = ORPHAN;
+                self.nodes[i as usize].parent = ORPHAN;
                 self.orphans.push(i);
             }
             i = self.topo.head(pa);
         }
         self.tr[i as usize] -= b;
         if !self.tr[i as usize].is_pos() {
-            self.parent[i as usize] = ORPHAN;
+            self.nodes[i as usize].parent = ORPHAN;
             self.orphans.push(i);
         }
         let mut i = self.topo.head(mid);
         loop {
-            let pa = self.parent[i as usize];
+            let pa = self.nodes[i as usize].parent;
             if pa == TERMINAL {
                 break;
             }
@@ -482,14 +554,14 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
             self.cap[down as usize] += b;
             self.cap[pa as usize] -= b;
             if !self.cap[pa as usize].is_pos() {
-                self.parent[i as usize] = ORPHAN;
+                self.nodes[i as usize].parent = ORPHAN;
                 self.orphans.push(i);
             }
             i = self.topo.head(pa);
         }
         self.tr[i as usize] += b;
         if !(-self.tr[i as usize]).is_pos() {
-            self.parent[i as usize] = ORPHAN;
+            self.nodes[i as usize].parent = ORPHAN;
             self.orphans.push(i);
         }
         self.flow += b.widen();
@@ -503,15 +575,15 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         let mut k = j;
         loop {
             let ku = k as usize;
-            if self.ts[ku] == self.time {
-                d += self.dist[ku];
+            if self.nodes[ku].ts == self.time {
+                d += self.nodes[ku].dist();
                 break;
             }
-            let pa = self.parent[ku];
+            let pa = self.nodes[ku].parent;
             d += 1;
             if pa == TERMINAL {
-                self.ts[ku] = self.time;
-                self.dist[ku] = 1;
+                self.nodes[ku].ts = self.time;
+                self.nodes[ku].set_dist(1);
                 break;
             }
             if pa == ORPHAN {
@@ -521,11 +593,11 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         }
         let mut k = j;
         let mut dd = d;
-        while self.ts[k as usize] != self.time {
-            self.ts[k as usize] = self.time;
-            self.dist[k as usize] = dd;
+        while self.nodes[k as usize].ts != self.time {
+            self.nodes[k as usize].ts = self.time;
+            self.nodes[k as usize].set_dist(dd);
             dd -= 1;
-            k = self.topo.head(self.parent[k as usize]);
+            k = self.topo.head(self.nodes[k as usize].parent);
         }
         d
     }
@@ -536,10 +608,10 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
             let i = self.orphans[idx];
             idx += 1;
             let iu = i as usize;
-            if self.parent[iu] != ORPHAN {
+            if self.nodes[iu].parent != ORPHAN {
                 continue;
             }
-            let is_sink = self.sink[iu];
+            let is_sink = self.nodes[iu].sink();
             let mut best = NONE;
             let mut dmin = INF_DIST;
             let mut arcs = self.topo.arcs(i);
@@ -552,7 +624,7 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
                 if residual.is_pos() {
                     let j = self.topo.head(a);
                     let ju = j as usize;
-                    if self.sink[ju] == is_sink && self.parent[ju] != NONE {
+                    if self.nodes[ju].sink() == is_sink && self.nodes[ju].parent != NONE {
                         let d = self.origin_distance(j);
                         if d < dmin {
                             best = a;
@@ -562,20 +634,20 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
                 }
             }
             if best != NONE {
-                self.parent[iu] = best;
-                self.ts[iu] = self.time;
-                self.dist[iu] = dmin + 1;
+                self.nodes[iu].parent = best;
+                self.nodes[iu].ts = self.time;
+                self.nodes[iu].set_dist(dmin + 1);
             } else {
-                self.parent[iu] = NONE;
+                self.nodes[iu].parent = NONE;
                 let mut arcs = self.topo.arcs(i);
                 while let Some(a) = arcs.next() {
                     let j = self.topo.head(a);
                     let ju = j as usize;
-                    let pj = self.parent[ju];
+                    let pj = self.nodes[ju].parent;
                     if pj != NONE {
                         // Any tree neighbour that could grow into i must look again (after
                         // tree reuse the other tree may border i through an open arc).
-                        let residual = if self.sink[ju] {
+                        let residual = if self.nodes[ju].sink() {
                             self.cap[a as usize]
                         } else {
                             self.cap[self.topo.sister(a) as usize]
@@ -583,12 +655,12 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
                         if residual.is_pos() {
                             self.activate(j);
                         }
-                        if self.sink[ju] == is_sink
+                        if self.nodes[ju].sink() == is_sink
                             && pj != TERMINAL
                             && pj != ORPHAN
                             && self.topo.head(pj) == i
                         {
-                            self.parent[ju] = ORPHAN;
+                            self.nodes[ju].parent = ORPHAN;
                             self.orphans.push(j);
                         }
                     }
