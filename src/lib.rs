@@ -8,6 +8,7 @@
 
 pub mod geometry;
 pub mod io;
+pub mod planemap;
 pub mod raster;
 pub mod scene;
 pub mod synth;
