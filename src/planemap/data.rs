@@ -65,7 +65,7 @@ fn prepare(inputs: &ViewInputs, config: &PlanemapConfig, pinhole: &Pinhole) -> P
     let mut centres = Vec::new();
     for i in 0..cloud.len() {
         let weight = cloud.confidence[i] - config.confidence_offset;
-        if !(weight > 0.0) {
+        if weight.is_nan() || weight <= 0.0 {
             continue;
         }
         let cam = (view.cam_from_world * Point3::from(cloud.positions[i])).coords;
@@ -129,7 +129,7 @@ fn label_conflicts(
         for c in &cloud.centres[pt.centres.clone()] {
             let seg = pt.cam - c;
             let len = seg.norm();
-            if !(len > margin) {
+            if len.is_nan() || len <= margin {
                 continue;
             }
             let denom = plane.normal.dot(&seg);
@@ -190,20 +190,6 @@ pub fn data_costs(
     if num_labels == 0 {
         return Ok(costs);
     }
-    // Planes behind the camera or parallel to the ray: maximal cost.
-    costs
-        .par_chunks_mut(width as usize * num_labels)
-        .enumerate()
-        .for_each(|(y, row)| {
-            for (x, px) in row.chunks_exact_mut(num_labels).enumerate() {
-                let ray = pinhole.ray(x as f64 + 0.5, y as f64 + 0.5);
-                for (c, plane) in px.iter_mut().zip(&planes_cam) {
-                    if plane.depth_along(&ray).is_none() {
-                        *c = trunc;
-                    }
-                }
-            }
-        });
 
     let cloud = prepare(inputs, config, &pinhole);
     let per_label: Vec<Vec<Conflict>> = planes_cam
@@ -211,23 +197,60 @@ pub fn data_costs(
         .map(|plane| label_conflicts(plane, &cloud, &pinhole, width, height, margin))
         .collect();
 
-    let r = config.splat_radius as i64;
+    // Bucket the conflicts by the image row of their centre (counting sort, stable: within a
+    // row, by label then point order), so each output row can gather its splats on its own
+    // and every (pixel, label) sum runs in the same order for any thread count.
+    let w = width as usize;
+    let mut row_start = vec![0usize; height as usize + 1];
+    for c in per_label.iter().flatten() {
+        row_start[(c.pixel / width) as usize + 1] += 1;
+    }
+    for y in 0..height as usize {
+        row_start[y + 1] += row_start[y];
+    }
+    let mut next = row_start.clone();
+    // (x, local label, weight)
+    let mut bucketed = vec![(0u32, 0u32, 0.0f32); row_start[height as usize]];
     for (label, conflicts) in per_label.iter().enumerate() {
         for c in conflicts {
-            let (cx, cy) = ((c.pixel % width) as i64, (c.pixel / width) as i64);
-            let y0 = (cy - r).max(0);
-            let y1 = (cy + r).min(height as i64 - 1);
-            let x0 = (cx - r).max(0);
-            let x1 = (cx + r).min(width as i64 - 1);
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let i = (y as usize * width as usize + x as usize) * num_labels + label;
-                    costs[i] += c.weight;
-                }
-            }
+            let row = (c.pixel / width) as usize;
+            bucketed[next[row]] = (c.pixel % width, label as u32, c.weight);
+            next[row] += 1;
         }
     }
-    costs.par_iter_mut().for_each(|c| *c = c.min(trunc));
+    drop(per_label);
+
+    let r = config.splat_radius as usize;
+    let planes_flat: Vec<[f64; 4]> = planes_cam
+        .iter()
+        .map(|p| [p.normal.x, p.normal.y, p.normal.z, p.offset])
+        .collect();
+    costs
+        .par_chunks_mut(w * num_labels)
+        .enumerate()
+        .for_each(|(y, row)| {
+            let cy0 = y.saturating_sub(r);
+            let cy1 = (y + r).min(height as usize - 1);
+            for &(cx, label, weight) in &bucketed[row_start[cy0]..row_start[cy1 + 1]] {
+                let x0 = (cx as usize).saturating_sub(r);
+                let x1 = (cx as usize + r).min(w - 1);
+                for x in x0..=x1 {
+                    row[x * num_labels + label as usize] += weight;
+                }
+            }
+            // Truncate; planes behind the camera or parallel to the ray: maximal cost.
+            // (Scalar form of `Plane::depth_along`, same tests, for the hot loop.)
+            let ry = (y as f64 + 0.5 - pinhole.cy) / pinhole.fy;
+            for (x, px) in row.chunks_exact_mut(num_labels).enumerate() {
+                let rx = (x as f64 + 0.5 - pinhole.cx) / pinhole.fx;
+                for (c, &[nx, ny, nz, d]) in px.iter_mut().zip(&planes_flat) {
+                    let denom = nx * rx + ny * ry + nz;
+                    let z = d / denom;
+                    let valid = denom.abs() > 1e-12 && z.is_finite() && z > 0.0;
+                    *c = if valid { c.min(trunc) } else { trunc };
+                }
+            }
+        });
     Ok(costs)
 }
 

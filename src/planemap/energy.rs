@@ -365,4 +365,80 @@ mod tests {
         let l = many.initial_labels();
         assert_eq!(many.energy(&l).to_bits(), one.energy(&l).to_bits());
     }
+
+    /// Timing at a realistic size: 640×480, 30 labels, 20k points with tracks of 3.
+    /// Run with `cargo test --lib planemap::energy -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "timing, not a check"]
+    fn time_build_640x480() {
+        use crate::geometry::{look_at, Camera};
+        use crate::raster::ImageF32;
+        use crate::scene::{SparseCloud, View};
+        use rand::{Rng, SeedableRng};
+        let cam = Camera::pinhole(640, 480, 520.0, 520.0, 320.0, 240.0);
+        let views: Vec<View> = [
+            Vector3::new(7.0, 5.5, 3.5),
+            Vector3::new(5.0, 7.5, 3.0),
+            Vector3::new(8.0, 4.0, 4.5),
+        ]
+        .iter()
+        .enumerate()
+        .map(|(i, eye)| View {
+            id: i as u32,
+            name: String::new(),
+            camera: cam.clone(),
+            cam_from_world: look_at(eye, &Vector3::new(1.2, 1.2, 1.0), &Vector3::z()),
+            image_path: None,
+        })
+        .collect();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let mut cloud = SparseCloud::default();
+        for i in 0..20_000 {
+            let mut p = Vector3::zeros();
+            for k in 0..3 {
+                if k != i % 3 {
+                    p[k] = rng.random_range(0.0..4.0);
+                }
+            }
+            cloud.positions.push(p);
+            cloud.colors.push([0; 3]);
+            cloud.tracks.push(vec![0, 1, 2]);
+            cloud.errors.push(0.0);
+            cloud.confidence.push(rng.random_range(0.3..1.0));
+        }
+        let planes: Vec<Plane> = (0..30)
+            .map(|k| Plane::new(Vector3::ith(k % 3, 1.0), (k / 3) as f64 * 0.4))
+            .collect();
+        let mut image = ImageF32::filled(640, 480, 1, 0.0);
+        for (i, v) in image.data.iter_mut().enumerate() {
+            *v = ((i % 640) as f32 / 640.0 + (i / 640 / 60) as f32 * 0.1).fract();
+        }
+        let dirs = [Vector3::x(), Vector3::y(), Vector3::z()];
+        let inputs = ViewInputs {
+            view_index: 0,
+            views: &views,
+            image: &image,
+            cloud: &cloud,
+            planes: &planes,
+            dominant_directions: &dirs,
+            scale: 0.01,
+        };
+        let config = PlanemapConfig::default();
+        let labels: Vec<u32> = (0..30).collect();
+        let t0 = std::time::Instant::now();
+        let d = crate::planemap::data_costs(&inputs, &labels, &config).unwrap();
+        let t1 = t0.elapsed();
+        let t0 = std::time::Instant::now();
+        let e = PlanemapEnergy::with_labels(&inputs, &labels, &config).unwrap();
+        let t2 = t0.elapsed();
+        let init = e.initial_labels();
+        let t0 = std::time::Instant::now();
+        let en = e.energy(&init);
+        let t3 = t0.elapsed();
+        eprintln!(
+            "threads {}: data_costs {t1:?}, full build {t2:?}, energy() {t3:?} (E = {en:.1}, {} costs)",
+            rayon::current_num_threads(),
+            d.len()
+        );
+    }
 }

@@ -152,7 +152,7 @@ fn mask_and_gradients(
             let i = y * w + x;
             let (gxi, gyi) = (gx[i] as f64, gy[i] as f64);
             let g = gxi.hypot(gyi);
-            if !(g > threshold) {
+            if g.is_nan() || g <= threshold {
                 continue;
             }
             if nms {

@@ -324,7 +324,7 @@ impl Pinhole {
     /// Image coordinates of a camera-frame point; `None` at or behind the camera plane.
     #[inline]
     pub fn project(&self, x: &Vector3<f64>) -> Option<Vector2<f64>> {
-        if !(x.z > 0.0) {
+        if x.z.is_nan() || x.z <= 0.0 {
             return None;
         }
         Some(Vector2::new(
