@@ -287,6 +287,46 @@ mod tests {
     }
 
     #[test]
+    fn truth_beats_a_parallel_distractor_and_a_shifted_boundary() {
+        let (scene, e) = build(0);
+        let t: Vec<u32> = truth(&scene, &e, 0)
+            .iter()
+            .map(|l| l.unwrap_or(0))
+            .collect();
+        let local = |g: u32| e.labels.iter().position(|&l| l == g).unwrap() as u32;
+        let e_truth = e.energy(&t);
+        // The floor (plane 2, z = 0) replaced by the parallel distractor z = 1.7 (plane 5).
+        let (floor, raised) = (local(2), local(5));
+        let lifted: Vec<u32> = t
+            .iter()
+            .map(|&a| if a == floor { raised } else { a })
+            .collect();
+        assert!(
+            e.energy(&lifted) > e_truth + 1.0,
+            "{} vs {e_truth}",
+            e.energy(&lifted)
+        );
+        // The wall x = 0 grown 3 pixels to the right into the wall y = 0, off the crease.
+        let (wx, wy) = (local(0), local(1));
+        let w = e.width as usize;
+        let mut grown = t.clone();
+        for y in 0..e.height as usize {
+            let row = &t[y * w..(y + 1) * w];
+            if let Some(x) = (1..w).find(|&x| row[x - 1] == wx && row[x] == wy) {
+                for g in &mut grown[y * w + x..(y * w + x + 3).min((y + 1) * w)] {
+                    *g = wx;
+                }
+            }
+        }
+        assert_ne!(grown, t);
+        assert!(
+            e.energy(&grown) > e_truth,
+            "{} vs {e_truth}",
+            e.energy(&grown)
+        );
+    }
+
+    #[test]
     fn depth_and_normals_follow_the_labels() {
         let (scene, e) = build(0);
         let view = &scene.views[0];
