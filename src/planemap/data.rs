@@ -5,9 +5,9 @@
 //!
 //! 1. P is seen by the target view t and projects to p: X is more than γ in front of or
 //!    behind P along the ray (the view sees P there, not X).
-//! 2. P is not seen by t but projects to p: X is more than γ behind P (then nothing would
-//!    hide P from t... and X itself would be hidden by P; either way X cannot be what t
-//!    sees at p). X in front of P is fine: it may be what occludes P.
+//! 2. P is not seen by t but projects to p: X is more than γ behind P. Then P would float
+//!    in the free space between camera t and the surface t sees at p, hiding X; X cannot be
+//!    what t sees there. X in front of P is fine: it may be what occludes P from t.
 //! 3. P is seen by another view j: X lies on the segment from camera j's centre to P, more
 //!    than γ before P (a surface there would block j's view of P).
 //!

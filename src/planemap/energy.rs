@@ -103,6 +103,27 @@ impl PlanemapEnergy {
         self.lambda * self.weights.between(p, q) * self.smoothness.cost(p, q, a, b)
     }
 
+    /// λ·V_pq(a, b) without the edge weight: the closure for a solver that applies the
+    /// weights [`EdgeWeights::interleaved`] itself (then `w · smoothness_term` = `pairwise`
+    /// up to f32 rounding).
+    #[inline]
+    pub fn smoothness_term(&self, p: usize, q: usize, a: u32, b: u32) -> f32 {
+        if a == b {
+            return 0.0;
+        }
+        self.lambda * self.smoothness.cost(p, q, a, b)
+    }
+
+    /// The pixels where local label `a` is feasible (its plane in front of the camera),
+    /// sorted; `None` when it is feasible everywhere.
+    pub fn feasible_sites(&self, a: u32) -> Option<Vec<u32>> {
+        let sites: Vec<u32> = (0..self.num_pixels())
+            .filter(|&p| self.feasible(p, a))
+            .map(|p| p as u32)
+            .collect();
+        (sites.len() < self.num_pixels()).then_some(sites)
+    }
+
     /// Whether local label `a`'s plane is in front of the camera at pixel `p` (otherwise its
     /// data cost is the truncation and it yields no depth).
     #[inline]
@@ -258,9 +279,12 @@ mod tests {
         let halves: Vec<u32> = (0..n).map(|p| u32::from(p % w >= split)).collect();
         let unary: f64 = (0..n).map(|p| e.unary(p, halves[p]) as f64).sum();
         let mut pair = 0.0f64;
+        let slots = e.weights.interleaved();
         for y in 0..e.height as usize {
             let p = y * w + split - 1;
             pair += (e.lambda * e.weights.right[p] * e.smoothness.cost(p, p + 1, 0, 1)) as f64;
+            let via_slots = slots[2 * p] * e.smoothness_term(p, p + 1, 0, 1);
+            assert!((via_slots - e.pairwise(p, p + 1, 0, 1)).abs() <= 1e-6 * via_slots);
         }
         assert!(pair > 0.0);
         let got = e.energy(&halves);
@@ -363,6 +387,12 @@ mod tests {
         let (scene, e) = build(0);
         let init = e.initial_labels();
         assert!(init.iter().enumerate().all(|(p, &a)| e.feasible(p, a)));
+        for a in 0..e.num_labels() as u32 {
+            let sites = e.feasible_sites(a);
+            let n = sites.as_ref().map_or(e.num_pixels(), |s| s.len());
+            let count = (0..e.num_pixels()).filter(|&p| e.feasible(p, a)).count();
+            assert_eq!(n, count);
+        }
         let t = truth(&scene, &e, 0);
         // At the pixels of points well inside a face, the data term alone picks the face.
         let mut agree = 0;

@@ -51,6 +51,17 @@ impl EdgeWeights {
         }
     }
 
+    /// The weights as one array of grid edge slots, `2·p` for the pair from pixel p to its
+    /// right neighbour and `2·p + 1` to its lower neighbour (the layout of a 4-connected grid
+    /// in `planemap-solvers`' `Mrf::with_edge_weights`).
+    pub fn interleaved(&self) -> Vec<f32> {
+        self.right
+            .iter()
+            .zip(&self.down)
+            .flat_map(|(&r, &d)| [r, d])
+            .collect()
+    }
+
     /// w_pq for 4-neighbours `p`, `q` (row-major indices, either order); 1 for pixels that
     /// are not 4-neighbours.
     #[inline]
@@ -365,6 +376,8 @@ mod tests {
         assert_eq!(w.between(10, 6), 0.5);
         assert_eq!(w.between(3, 4), 1.0, "row wrap is not an edge");
         assert_eq!(w.between(0, 5), 1.0);
+        let slots = w.interleaved();
+        assert_eq!((slots.len(), slots[10], slots[13]), (24, 0.25, 0.5));
     }
 
     #[test]
