@@ -108,20 +108,23 @@ fn label_conflicts(
         // Cases 1 and 2: along the ray through P's own projection.
         if let Some(pixel) = pt.pixel {
             let ray = pt.cam / pt.cam.z;
-            if let Some(depth) = plane.depth_along(&ray) {
-                // Signed distance along the ray, positive when X is behind P.
-                let behind = (depth - pt.cam.z) * ray.norm();
-                let conflict = if pt.seen_by_target {
-                    behind.abs() > margin
-                } else {
-                    behind > margin
-                };
-                if conflict {
-                    out.push(Conflict {
-                        pixel,
-                        weight: pt.weight,
-                    });
-                }
+            // Signed distance along the ray, positive when X is behind P. A plane missing
+            // the ray (parallel, or met behind the camera) counts as infinitely far behind:
+            // at P's own pixel it costs the truncation anyway, but the splat's other pixels
+            // may see the plane far away on the other side of its horizon.
+            let behind = plane
+                .depth_along(&ray)
+                .map_or(f64::INFINITY, |depth| (depth - pt.cam.z) * ray.norm());
+            let conflict = if pt.seen_by_target {
+                behind.abs() > margin
+            } else {
+                behind > margin
+            };
+            if conflict {
+                out.push(Conflict {
+                    pixel,
+                    weight: pt.weight,
+                });
             }
         }
         // Case 3: X would block P from another view j.
@@ -468,15 +471,22 @@ mod tests {
                 continue;
             }
             let (xy, _) = views[t].project(p).unwrap();
-            let pix = (xy.y as usize * w as usize + xy.x as usize) * l;
-            let row = &costs[pix..pix + l];
-            for (k, &c) in row.iter().enumerate() {
-                if k != own {
-                    assert!(
-                        c > row[own],
-                        "point {i}: label {k} {c} vs true {}",
-                        row[own]
-                    );
+            // The pixel of P and the 3×3 splat footprint around it.
+            for (dx, dy) in (-1i64..=1).flat_map(|dx| (-1i64..=1).map(move |dy| (dx, dy))) {
+                let (x, y) = (xy.x as i64 + dx, xy.y as i64 + dy);
+                if x < 0 || y < 0 || x >= w as i64 || y >= views[t].camera.height as i64 {
+                    continue;
+                }
+                let pix = (y as usize * w as usize + x as usize) * l;
+                let row = &costs[pix..pix + l];
+                for (k, &c) in row.iter().enumerate() {
+                    if k != own {
+                        assert!(
+                            c > row[own],
+                            "point {i}: label {k} {c} vs true {}",
+                            row[own]
+                        );
+                    }
                 }
             }
             checked += 1;
