@@ -1,0 +1,820 @@
+//! The whole chain: sparse points → normals → dominant axes → plane hypotheses → one
+//! planemap per view (α-expansion) → depth and normal maps → fused points.
+//!
+//! The CLI and library users call the same functions: [`prepare`] for the global stages,
+//! [`label_view`] for one view, [`run`] for everything including the output files.
+
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use nalgebra::{Point3, Vector2, Vector3};
+use planemap_solvers::{DataCost, ExpansionConfig, LabelOrder, Mrf, MrfError, Smoothness};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::axes::{dominant_axes, AxesConfig, AxesError, DominantAxes};
+use crate::hypotheses::{
+    plane_hypotheses, HypothesesConfig, HypothesesError, HypothesesInput, PlaneHypothesis,
+};
+use crate::io::atomic::write_atomic;
+use crate::io::dense::{write_dense_map_path, DenseError};
+use crate::io::labelpng::{label_colors, write_label_png, LabelPngError};
+use crate::io::pfm::{write_pfm_path, PfmError};
+use crate::io::ply::{write_ply_points_path, PlyError, PlyPoints};
+use crate::normals::{estimate_normals_with_scale, NormalsConfig, NormalsError, OrientedCloud};
+use crate::planemap::{PlanemapConfig, PlanemapEnergy, PlanemapError, ViewInputs};
+use crate::progress::Progress;
+use crate::raster::ImageF32;
+use crate::scale::{sampling_scale, ScaleError};
+use crate::scene::{Scene, SceneError};
+
+/// Errors of the pipeline; each names the stage (and view) that failed.
+#[derive(Debug, Error)]
+pub enum PipelineError {
+    /// The configuration is invalid.
+    #[error("config: {0}")]
+    Config(String),
+    /// The scene cannot be used.
+    #[error("scene: {0}")]
+    Scene(String),
+    /// Sampling scale.
+    #[error("scale: {0}")]
+    Scale(#[from] ScaleError),
+    /// Normals stage.
+    #[error("normals: {0}")]
+    Normals(#[from] NormalsError),
+    /// Dominant axes stage.
+    #[error("dominant axes: {0}")]
+    Axes(#[from] AxesError),
+    /// Plane hypotheses stage.
+    #[error("plane hypotheses: {0}")]
+    Hypotheses(#[from] HypothesesError),
+    /// Building a view's energy.
+    #[error("view {view:?}: planemap energy: {source}")]
+    Planemap {
+        /// The view's image name.
+        view: String,
+        /// What failed.
+        source: PlanemapError,
+    },
+    /// The solver rejected the problem.
+    #[error("view {view:?}: solver: {source}")]
+    Solver {
+        /// The view's image name.
+        view: String,
+        /// What failed.
+        source: MrfError,
+    },
+    /// Loading an image.
+    #[error(transparent)]
+    Image(#[from] SceneError),
+    /// Writing a PFM.
+    #[error(transparent)]
+    Pfm(#[from] PfmError),
+    /// Writing a COLMAP dense map.
+    #[error(transparent)]
+    Dense(#[from] DenseError),
+    /// Writing a label PNG.
+    #[error(transparent)]
+    LabelPng(#[from] LabelPngError),
+    /// Writing a PLY.
+    #[error(transparent)]
+    Ply(#[from] PlyError),
+    /// Another output file.
+    #[error("{path}: {message}")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+fn write_err(path: &Path, e: impl std::fmt::Display) -> PipelineError {
+    PipelineError::Write {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Options of the α-expansion solve.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct SolverConfig {
+    /// Maximum α-expansion cycles (sweeps over all labels).
+    pub max_cycles: usize,
+    /// Integer cost units per unit of real cost: costs are rounded to integers so the
+    /// max-flow is exact. 1000 keeps rounding below 0.1% of the smallest useful cost.
+    pub cost_scale: f64,
+}
+
+impl Default for SolverConfig {
+    fn default() -> Self {
+        SolverConfig {
+            max_cycles: 10,
+            cost_scale: 1000.0,
+        }
+    }
+}
+
+/// Options of the fused point cloud.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct FusionConfig {
+    /// Keep a pixel's point only if at least this many other views agree with its depth.
+    pub min_consistent_views: usize,
+    /// Relative depth tolerance for "agree": |z_j − z| ≤ tolerance · z.
+    pub depth_tolerance: f64,
+    /// Take every `stride`-th pixel in x and y (1 = all).
+    pub stride: u32,
+}
+
+impl Default for FusionConfig {
+    fn default() -> Self {
+        FusionConfig {
+            min_consistent_views: 1,
+            depth_tolerance: 0.01,
+            stride: 2,
+        }
+    }
+}
+
+/// A whole run's configuration: one section per stage (TOML).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    /// Normals for points without them.
+    pub normals: NormalsConfig,
+    /// Dominant axes.
+    pub axes: AxesConfig,
+    /// Plane hypotheses.
+    pub hypotheses: HypothesesConfig,
+    /// Per-view planemap energy.
+    pub planemap: PlanemapConfig,
+    /// α-expansion.
+    pub solver: SolverConfig,
+    /// Fused point cloud.
+    pub fusion: FusionConfig,
+}
+
+impl Config {
+    /// Parses a TOML config; errors name `origin` and the line.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Config, PipelineError> {
+        toml::from_str(text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+            PipelineError::Config(match line {
+                Some(l) => format!("{origin}:{l}: {}", e.message()),
+                None => format!("{origin}: {}", e.message()),
+            })
+        })
+    }
+
+    /// Reads a TOML config file.
+    pub fn from_path(path: &Path) -> Result<Config, PipelineError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| PipelineError::Config(format!("{}: {e}", path.display())))?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// Applies `section.key=value` overrides (value in TOML syntax; bare words are strings),
+    /// e.g. `planemap.lambda=0.5`.
+    pub fn with_overrides(&self, overrides: &[String]) -> Result<Config, PipelineError> {
+        let mut root = toml::Value::try_from(self)
+            .map_err(|e| PipelineError::Config(format!("cannot serialise config: {e}")))?;
+        for ov in overrides {
+            let (key, value) = ov.split_once('=').ok_or_else(|| {
+                PipelineError::Config(format!("override {ov:?}: expected section.key=value"))
+            })?;
+            let parsed: toml::Value = toml::from_str::<toml::Table>(&format!("v = {value}"))
+                .ok()
+                .and_then(|mut t| t.remove("v"))
+                .unwrap_or_else(|| toml::Value::String(value.to_string()));
+            let mut node = &mut root;
+            let parts: Vec<&str> = key.trim().split('.').collect();
+            for (i, part) in parts.iter().enumerate() {
+                let table = node.as_table_mut().ok_or_else(|| {
+                    PipelineError::Config(format!("override {ov:?}: {part:?} is not a section"))
+                })?;
+                if i + 1 == parts.len() {
+                    if !table.contains_key(*part) {
+                        return Err(PipelineError::Config(format!(
+                            "override {ov:?}: unknown key {key:?}"
+                        )));
+                    }
+                    table.insert(part.to_string(), parsed.clone());
+                    break;
+                }
+                node = table.get_mut(*part).ok_or_else(|| {
+                    PipelineError::Config(format!("override {ov:?}: unknown section {part:?}"))
+                })?;
+            }
+        }
+        let text = toml::to_string(&root)
+            .map_err(|e| PipelineError::Config(format!("cannot serialise config: {e}")))?;
+        Self::from_toml_str(&text, "overrides")
+    }
+
+    /// Checks every stage's config.
+    pub fn validate(&self) -> Result<(), PipelineError> {
+        self.normals.validate()?;
+        self.axes.validate()?;
+        self.hypotheses.validate()?;
+        self.planemap
+            .validate()
+            .map_err(|e| PipelineError::Config(format!("planemap: {e}")))?;
+        if !(self.solver.cost_scale.is_finite() && self.solver.cost_scale > 0.0) {
+            return Err(PipelineError::Config(
+                "solver.cost_scale must be positive".into(),
+            ));
+        }
+        if self.fusion.stride == 0 || !(self.fusion.depth_tolerance > 0.0) {
+            return Err(PipelineError::Config(
+                "fusion.stride must be ≥ 1 and fusion.depth_tolerance > 0".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The global (all-view) results: scale, oriented points, axes, plane hypotheses.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// Sampling scale R (3D size of a pixel at the points' depths).
+    pub scale: f64,
+    /// Normals and confidences of the sparse points.
+    pub oriented: OrientedCloud,
+    /// Dominant directions.
+    pub axes: DominantAxes,
+    /// Plane hypotheses; a planemap label `l` is hypothesis `l`.
+    pub hypotheses: Vec<PlaneHypothesis>,
+    /// Seconds spent per stage: scale + normals, axes, hypotheses.
+    pub seconds: [f64; 3],
+}
+
+/// Runs the global stages on an (undistorted) scene.
+pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
+    if scene.views.is_empty() {
+        return Err(PipelineError::Scene("the scene has no views".into()));
+    }
+    if scene.cloud.is_empty() {
+        return Err(PipelineError::Scene(
+            "the scene has no sparse points: plane hypotheses come from them".into(),
+        ));
+    }
+    scene
+        .cloud
+        .validate(scene.views.len())
+        .map_err(|e| PipelineError::Scene(e.to_string()))?;
+    let t = Instant::now();
+    let scale = sampling_scale(scene)?;
+    let oriented = estimate_normals_with_scale(scene, scale, &cfg.normals)?;
+    let t_normals = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let axes = dominant_axes(&oriented, &cfg.axes)?;
+    let t_axes = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let hypotheses = plane_hypotheses(
+        &HypothesesInput {
+            positions: &scene.cloud.positions,
+            normals: &oriented.normals,
+            confidence: &oriented.confidence,
+            axes: &axes,
+            scale,
+        },
+        &cfg.hypotheses,
+    )?;
+    if hypotheses.is_empty() {
+        return Err(PipelineError::Scene(format!(
+            "no plane hypothesis has enough support ({} points, {} dominant directions)",
+            scene.cloud.len(),
+            axes.directions.len()
+        )));
+    }
+    Ok(Prepared {
+        scale,
+        oriented,
+        axes,
+        hypotheses,
+        seconds: [t_normals, t_axes, t.elapsed().as_secs_f64()],
+    })
+}
+
+/// One view's planemap and what follows from it.
+#[derive(Debug, Clone)]
+pub struct ViewPlanemap {
+    /// Index into `Scene::views`.
+    pub view_index: usize,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Hypothesis index per pixel (row-major).
+    pub labels: Vec<u32>,
+    /// Depth (camera z) per pixel; 0 where the plane gives none.
+    pub depth: Vec<f32>,
+    /// Camera-frame unit normal per pixel, facing the camera (COLMAP's convention).
+    pub normals: Vec<[f32; 3]>,
+    /// Hypotheses kept for this view (after pruning).
+    pub candidate_labels: usize,
+    /// Energy of the data-argmin start and of the result (real units).
+    pub energy: (f64, f64),
+    /// α-expansion cycles run.
+    pub cycles: usize,
+    /// Seconds: building the energy, solving.
+    pub seconds: (f64, f64),
+}
+
+/// Labels one view: builds its energy ([`PlanemapEnergy`]) and minimises it by α-expansion.
+/// `scene` must be undistorted (PINHOLE) and `image` its image.
+pub fn label_view(
+    scene: &Scene,
+    prepared: &Prepared,
+    view_index: usize,
+    image: &ImageF32,
+    cfg: &Config,
+) -> Result<ViewPlanemap, PipelineError> {
+    let view = &scene.views[view_index];
+    let planes: Vec<_> = prepared.hypotheses.iter().map(|h| h.plane).collect();
+    let inputs = ViewInputs {
+        view_index,
+        views: &scene.views,
+        image,
+        cloud: &scene.cloud,
+        planes: &planes,
+        dominant_directions: &prepared.axes.directions,
+        scale: prepared.scale,
+    };
+    let planemap_err = |source| PipelineError::Planemap {
+        view: view.name.clone(),
+        source,
+    };
+    let solver_err = |source| PipelineError::Solver {
+        view: view.name.clone(),
+        source,
+    };
+    let t = Instant::now();
+    let energy = PlanemapEnergy::build(&inputs, &cfg.planemap).map_err(planemap_err)?;
+    let t_build = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let num_labels = energy.num_labels();
+    let scale = cfg.solver.cost_scale;
+    let to_int = |c: f32| (c as f64 * scale).round().min(i32::MAX as f64 / 8.0) as i32;
+    let unary: Vec<i32> = energy.unary.iter().map(|&c| to_int(c)).collect();
+    let initial = energy.initial_labels();
+    let smooth = |p: usize, q: usize, a: u32, b: u32| to_int(energy.pairwise(p, q, a, b));
+    let mut mrf = Mrf::grid(
+        energy.width as usize,
+        energy.height as usize,
+        planemap_solvers::Connectivity::Four,
+        num_labels,
+        DataCost::Dense(&unary),
+    )
+    .map_err(solver_err)?
+    .with_smoothness(Smoothness::Fn(Box::new(smooth)))
+    .map_err(solver_err)?;
+    for a in 0..num_labels as u32 {
+        if let Some(mut sites) = energy.feasible_sites(a) {
+            // The start may put an infeasible label where nothing is feasible: allow it there.
+            sites.extend(
+                initial
+                    .iter()
+                    .enumerate()
+                    .filter(|&(_, &l)| l == a)
+                    .map(|(p, _)| p as u32),
+            );
+            sites.sort_unstable();
+            sites.dedup();
+            mrf = mrf.with_feasible_sites(a, &sites).map_err(solver_err)?;
+        }
+    }
+    let solution = mrf
+        .expansion(
+            &ExpansionConfig {
+                max_cycles: cfg.solver.max_cycles,
+                order: LabelOrder::Fixed,
+            },
+            Some(&initial),
+        )
+        .map_err(solver_err)?;
+    let t_solve = t.elapsed().as_secs_f64();
+    let labels = solution.labels;
+    Ok(ViewPlanemap {
+        view_index,
+        width: energy.width,
+        height: energy.height,
+        depth: energy.depth_for_labels(&labels),
+        normals: energy.normals_for_labels(&labels),
+        energy: (energy.energy(&initial), energy.energy(&labels)),
+        labels: energy.global_labels(&labels),
+        candidate_labels: num_labels,
+        cycles: solution.cycles.len(),
+        seconds: (t_build, t_solve),
+    })
+}
+
+/// Which views to process and how.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Indices into `Scene::views` to label (`None` = all).
+    pub views: Option<Vec<usize>>,
+    /// Skip views whose outputs already exist (reloading their depth for fusion).
+    pub resume: bool,
+}
+
+/// What a run produced, per view and globally.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    /// Sampling scale R.
+    pub scale: f64,
+    /// Dominant directions found.
+    pub directions: Vec<[f64; 3]>,
+    /// Angles between them (degrees).
+    pub direction_angles_deg: Vec<(usize, usize, f64)>,
+    /// Plane hypotheses.
+    pub hypotheses: usize,
+    /// Per view: name, candidate labels, energy before/after, cycles, build and solve seconds.
+    pub views: Vec<ViewSummary>,
+    /// Points in fused.ply.
+    pub fused_points: usize,
+    /// Wall-clock seconds per stage: normals, axes, hypotheses, planemaps, fusion.
+    pub stage_seconds: [f64; 5],
+}
+
+/// One view's line of the summary.
+#[derive(Debug, Clone, Serialize)]
+pub struct ViewSummary {
+    /// Image name.
+    pub name: String,
+    /// Hypotheses kept for the view.
+    pub candidate_labels: usize,
+    /// Energy of the start labelling.
+    pub initial_energy: f64,
+    /// Energy of the result.
+    pub energy: f64,
+    /// α-expansion cycles.
+    pub cycles: usize,
+    /// Seconds to build the energy.
+    pub build_seconds: f64,
+    /// Seconds to solve.
+    pub solve_seconds: f64,
+    /// Whether the view was skipped by `--resume`.
+    pub resumed: bool,
+}
+
+/// `planemaps/NAME.png` etc. use the image name without its extension.
+pub fn output_stem(name: &str) -> String {
+    Path::new(name)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| name.to_string())
+}
+
+/// Runs the whole chain on a scene and writes into `out`:
+///
+/// ```text
+/// out/planemaps/NAME.png       16-bit hypothesis id + 1 per pixel (0 = no plane)
+/// out/planemaps/NAME_vis.png   the same in colour (a stable colour per plane)
+/// out/depth/NAME.pfm           depth (camera z), 0 = none
+/// out/stereo/depth_maps/IMAGE.geometric.bin    COLMAP dense depth map
+/// out/stereo/normal_maps/IMAGE.geometric.bin   COLMAP dense normal map (camera frame)
+/// out/planes.json              hypotheses, support, which views use them
+/// out/fused.ply                back-projected, cross-view consistent points
+/// out/summary.json             this summary
+/// ```
+pub fn run(
+    scene: &Scene,
+    cfg: &Config,
+    out: &Path,
+    opts: &RunOptions,
+    progress: &Progress,
+) -> Result<(Prepared, Vec<ViewPlanemap>, RunSummary), PipelineError> {
+    cfg.validate()?;
+    let scene = scene.undistorted();
+    let bar = progress.bar(3, "sparse stages");
+    let prepared = prepare(&scene, cfg)?;
+    bar.inc(3);
+    bar.finish();
+    progress.println(&format!(
+        "R = {:.4}, {} dominant directions, {} plane hypotheses",
+        prepared.scale,
+        prepared.axes.directions.len(),
+        prepared.hypotheses.len()
+    ));
+    let indices: Vec<usize> = match &opts.views {
+        Some(v) => {
+            if let Some(&bad) = v.iter().find(|&&i| i >= scene.views.len()) {
+                return Err(PipelineError::Scene(format!(
+                    "view index {bad} out of range (the scene has {} views)",
+                    scene.views.len()
+                )));
+            }
+            v.clone()
+        }
+        None => (0..scene.views.len()).collect(),
+    };
+    for d in [
+        "planemaps",
+        "depth",
+        "stereo/depth_maps",
+        "stereo/normal_maps",
+    ] {
+        std::fs::create_dir_all(out.join(d)).map_err(|e| write_err(&out.join(d), e))?;
+    }
+    let t = Instant::now();
+    let bar = progress.bar(indices.len() as u64, "planemaps");
+    let results: Vec<Result<(ViewPlanemap, bool), PipelineError>> = indices
+        .par_iter()
+        .map(|&i| {
+            let view = &scene.views[i];
+            if opts.resume {
+                if let Some(done) = load_view_outputs(out, &scene, &prepared, i) {
+                    bar.inc(1);
+                    return Ok((done, true));
+                }
+            }
+            let image = view.load_undistorted_image()?;
+            let result = label_view(&scene, &prepared, i, &image, cfg)?;
+            write_view_outputs(out, &scene, &result)?;
+            bar.inc(1);
+            Ok((result, false))
+        })
+        .collect();
+    bar.finish();
+    let t_views = t.elapsed().as_secs_f64();
+    let mut views = Vec::with_capacity(results.len());
+    let mut resumed = Vec::with_capacity(results.len());
+    for r in results {
+        let (v, skipped) = r?;
+        views.push(v);
+        resumed.push(skipped);
+    }
+    let t = Instant::now();
+    let fused = fuse(&scene, &views, &cfg.fusion)?;
+    write_ply_points_path(&out.join("fused.ply"), &fused)?;
+    write_planes_json(&out.join("planes.json"), &scene, &prepared, &views)?;
+    let t_fuse = t.elapsed().as_secs_f64();
+    let summary = RunSummary {
+        scale: prepared.scale,
+        directions: prepared
+            .axes
+            .directions
+            .iter()
+            .map(|d| [d.x, d.y, d.z])
+            .collect(),
+        direction_angles_deg: prepared.axes.pairwise_angles_deg.clone(),
+        hypotheses: prepared.hypotheses.len(),
+        views: views
+            .iter()
+            .zip(&resumed)
+            .map(|(v, &r)| ViewSummary {
+                name: scene.views[v.view_index].name.clone(),
+                candidate_labels: v.candidate_labels,
+                initial_energy: v.energy.0,
+                energy: v.energy.1,
+                cycles: v.cycles,
+                build_seconds: v.seconds.0,
+                solve_seconds: v.seconds.1,
+                resumed: r,
+            })
+            .collect(),
+        fused_points: fused.positions.len(),
+        stage_seconds: [
+            prepared.seconds[0],
+            prepared.seconds[1],
+            prepared.seconds[2],
+            t_views,
+            t_fuse,
+        ],
+    };
+    let path = out.join("summary.json");
+    let json = serde_json::to_string_pretty(&summary).map_err(|e| write_err(&path, e))?;
+    write_atomic::<std::io::Error, _>(&path, |f: &mut BufWriter<File>| {
+        std::io::Write::write_all(f, json.as_bytes())
+    })
+    .map_err(|e| write_err(&path, e))?;
+    Ok((prepared, views, summary))
+}
+
+/// Writes one view's planemap, depth and normal maps.
+pub fn write_view_outputs(
+    out: &Path,
+    scene: &Scene,
+    result: &ViewPlanemap,
+) -> Result<(), PipelineError> {
+    let view = &scene.views[result.view_index];
+    let stem = output_stem(&view.name);
+    let (w, h) = (result.width, result.height);
+    let ids: Vec<u16> = result
+        .labels
+        .iter()
+        .zip(&result.depth)
+        .map(|(&l, &z)| if z > 0.0 { (l + 1).min(u16::MAX as u32) as u16 } else { 0 })
+        .collect();
+    let vis_path = out.join("planemaps").join(format!("{stem}_vis.png"));
+    let vis = label_colors(&ids, w, h);
+    write_atomic::<std::io::Error, _>(&vis_path, |f: &mut BufWriter<File>| {
+        vis.write_to(f, image::ImageFormat::Png)
+            .map_err(std::io::Error::other)
+    })
+    .map_err(|e| write_err(&vis_path, e))?;
+    let depth = ImageF32 {
+        width: w,
+        height: h,
+        channels: 1,
+        data: result.depth.clone(),
+    };
+    write_pfm_path(&out.join("depth").join(format!("{stem}.pfm")), &depth)?;
+    let name = Path::new(&view.name)
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| view.name.clone());
+    write_dense_map_path(
+        &out.join("stereo/depth_maps").join(format!("{name}.geometric.bin")),
+        &depth,
+    )?;
+    let normals = ImageF32 {
+        width: w,
+        height: h,
+        channels: 3,
+        data: result.normals.iter().flatten().copied().collect(),
+    };
+    write_dense_map_path(
+        &out.join("stereo/normal_maps").join(format!("{name}.geometric.bin")),
+        &normals,
+    )?;
+    // The label map last: its presence marks the view complete for --resume.
+    write_label_png(&out.join("planemaps").join(format!("{stem}.png")), w, h, &ids)?;
+    Ok(())
+}
+
+/// Reloads a view's outputs for `--resume`; `None` if any is missing or unreadable.
+fn load_view_outputs(
+    out: &Path,
+    scene: &Scene,
+    prepared: &Prepared,
+    view_index: usize,
+) -> Option<ViewPlanemap> {
+    let view = &scene.views[view_index];
+    let stem = output_stem(&view.name);
+    let (w, h, ids) =
+        crate::io::labelpng::read_label_png(&out.join("planemaps").join(format!("{stem}.png")))
+            .ok()?;
+    let depth = crate::io::pfm::read_pfm_path(&out.join("depth").join(format!("{stem}.pfm"))).ok()?;
+    if (w, h) != (view.camera.width, view.camera.height)
+        || (depth.width, depth.height) != (w, h)
+        || ids
+            .iter()
+            .any(|&id| id as usize > prepared.hypotheses.len())
+    {
+        return None;
+    }
+    let normals = ids
+        .iter()
+        .map(|&id| {
+            if id == 0 {
+                return [0.0; 3];
+            }
+            let n = view.cam_from_world.rotation * prepared.hypotheses[id as usize - 1].plane.normal;
+            [n.x as f32, n.y as f32, n.z as f32]
+        })
+        .collect();
+    Some(ViewPlanemap {
+        view_index,
+        width: w,
+        height: h,
+        labels: ids.iter().map(|&id| (id as u32).saturating_sub(1)).collect(),
+        depth: depth.data,
+        normals,
+        candidate_labels: 0,
+        energy: (0.0, 0.0),
+        cycles: 0,
+        seconds: (0.0, 0.0),
+    })
+}
+
+/// Back-projects every view's depth (every `stride`-th pixel), keeping points that at least
+/// `min_consistent_views` other labelled views see at the same depth (relative tolerance).
+/// Colours are black: fusion does not reload images.
+pub fn fuse(
+    scene: &Scene,
+    views: &[ViewPlanemap],
+    cfg: &FusionConfig,
+) -> Result<PlyPoints, PipelineError> {
+    let per_view: Vec<Vec<(Vector3<f64>, Vector3<f64>)>> = views
+        .par_iter()
+        .map(|vr| {
+            let view = &scene.views[vr.view_index];
+            let rot_inv = view.cam_from_world.rotation.inverse();
+            let mut pts = Vec::new();
+            for y in (0..vr.height).step_by(cfg.stride as usize) {
+                for x in (0..vr.width).step_by(cfg.stride as usize) {
+                    let p = (y * vr.width + x) as usize;
+                    let z = vr.depth[p] as f64;
+                    if z <= 0.0 {
+                        continue;
+                    }
+                    let ray = view.camera.pixel_ray(x, y);
+                    let x_cam = Point3::from(ray * z);
+                    let x_world = view.cam_from_world.inverse_transform_point(&x_cam).coords;
+                    let mut agree = 0usize;
+                    for other in views.iter().filter(|o| o.view_index != vr.view_index) {
+                        let ov = &scene.views[other.view_index];
+                        if let Some((xy, oz)) = ov.project(&x_world) {
+                            if ov.camera.contains(&xy) {
+                                let (ox, oy) = (xy.x as u32, xy.y as u32);
+                                let od = other.depth[(oy * other.width + ox) as usize] as f64;
+                                if od > 0.0 && (od - oz).abs() <= cfg.depth_tolerance * oz {
+                                    agree += 1;
+                                }
+                            }
+                        }
+                    }
+                    if agree >= cfg.min_consistent_views {
+                        let n = vr.normals[p];
+                        let n_world =
+                            rot_inv * Vector3::new(n[0] as f64, n[1] as f64, n[2] as f64);
+                        pts.push((x_world, n_world));
+                    }
+                }
+            }
+            pts
+        })
+        .collect();
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    for v in per_view {
+        for (p, n) in v {
+            positions.push(p);
+            normals.push(n);
+        }
+    }
+    let colors = vec![[200u8, 200, 200]; positions.len()];
+    let _ = Vector2::<f64>::zeros;
+    Ok(PlyPoints {
+        positions,
+        normals: Some(normals),
+        colors: Some(colors),
+    })
+}
+
+/// One hypothesis in `planes.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PlaneRecord {
+    /// Hypothesis id (= label − 1 in the planemap PNGs).
+    pub id: u32,
+    /// Unit normal (world).
+    pub normal: [f64; 3],
+    /// Offset d in n·X = d.
+    pub offset: f64,
+    /// The dominant direction it came from.
+    pub axis: Option<usize>,
+    /// Supporting sparse points.
+    pub support: usize,
+    /// Image names of the views whose planemap uses it, with pixel counts.
+    pub views: Vec<(String, usize)>,
+}
+
+fn write_planes_json(
+    path: &Path,
+    scene: &Scene,
+    prepared: &Prepared,
+    views: &[ViewPlanemap],
+) -> Result<(), PipelineError> {
+    let mut usage = vec![Vec::new(); prepared.hypotheses.len()];
+    for v in views {
+        let mut counts = vec![0usize; prepared.hypotheses.len()];
+        for (&l, &z) in v.labels.iter().zip(&v.depth) {
+            if z > 0.0 && (l as usize) < counts.len() {
+                counts[l as usize] += 1;
+            }
+        }
+        for (h, &c) in counts.iter().enumerate() {
+            if c > 0 {
+                usage[h].push((scene.views[v.view_index].name.clone(), c));
+            }
+        }
+    }
+    let records: Vec<PlaneRecord> = prepared
+        .hypotheses
+        .iter()
+        .zip(usage)
+        .map(|(h, views)| PlaneRecord {
+            id: h.id,
+            normal: [h.plane.normal.x, h.plane.normal.y, h.plane.normal.z],
+            offset: h.plane.offset,
+            axis: h.axis,
+            support: h.support,
+            views,
+        })
+        .collect();
+    let json = serde_json::to_string_pretty(&records).map_err(|e| write_err(path, e))?;
+    write_atomic::<std::io::Error, _>(path, |f: &mut BufWriter<File>| {
+        std::io::Write::write_all(f, json.as_bytes())
+    })
+    .map_err(|e| write_err(path, e))
+}
