@@ -8,6 +8,7 @@
 
 pub mod geometry;
 pub mod io;
+pub mod photo;
 pub mod raster;
 pub mod scene;
 pub mod synth;
