@@ -12,6 +12,7 @@ pub mod hypotheses;
 pub mod info;
 pub mod io;
 pub mod normals;
+pub mod photo;
 pub mod pipeline;
 pub mod planemap;
 pub mod progress;

@@ -1,0 +1,233 @@
+//! Photo-consistency (tutorial chapter 2) and plane-sweep stereo.
+//!
+//! The vocabulary every depth estimate in planemap is scored in:
+//!
+//! - [`measures`]: SSD, SAD, NCC (colour: per-channel means, one joint variance), Census,
+//!   Rank and mutual information between a reference patch and a warped patch;
+//! - [`normalize`]: raw scores → costs in `[0, 1]` (exponential, truncated linear, smooth
+//!   step) with the tutorial's thresholds as defaults;
+//! - [`aggregate`]: box (integral images), bilateral, guided and weighted-median filtering of
+//!   cost slices;
+//! - [`sweep`]: neighbour selection, plane families, the plane cost volume (cost per pixel and
+//!   plane, what the planemap data term consumes) and winner-takes-all plane-sweep depth
+//!   (Collins 1996; Gallup et al. 2007 for sweeps along the dominant axes).
+
+pub mod aggregate;
+pub mod measures;
+pub mod normalize;
+pub mod sweep;
+
+pub use aggregate::{box_filter, Aggregation, Integral};
+pub use measures::{raw_cost, Measure};
+pub use normalize::Normalization;
+pub use sweep::{
+    axis_planes, axis_sweep_planes, fronto_parallel_depths, fronto_parallel_planes,
+    plane_cost_volume, plane_sweep, select_neighbours, winner_takes_all, CostVolume, SweepResult,
+    NO_PLANE,
+};
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Errors of the photo-consistency stage.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum PhotoError {
+    /// A configuration value is out of range (message names the field and the value).
+    #[error("invalid photo-consistency config: {0}")]
+    InvalidConfig(String),
+    /// An image or slice does not have the expected size (message says which and what).
+    #[error("size mismatch: {0}")]
+    Size(String),
+    /// A view's camera has lens distortion; plane homographies need undistorted images.
+    #[error("view {0:?} has a distorted camera: undistort it first (Scene::undistorted)")]
+    Distorted(String),
+    /// A view index is out of range.
+    #[error("view index {index} out of range: the scene has {count} views")]
+    ViewIndex {
+        /// The index asked for.
+        index: usize,
+        /// Number of views.
+        count: usize,
+    },
+    /// Inputs that leave nothing to compute (no neighbours, no planes, bad depth range).
+    #[error("invalid input: {0}")]
+    InvalidInput(String),
+}
+
+/// How colour is used (tutorial §2.1 lists both strategies).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ColorMode {
+    /// Convert to grey (Rec. 601 luma) first: 3× cheaper, the common choice in sweeps.
+    #[default]
+    Gray,
+    /// Use all channels (NCC: per-channel means, one joint variance; the other measures
+    /// concatenate the channels). Grey images stay grey.
+    Color,
+}
+
+/// Photo-consistency settings shared by the cost volume and the sweep.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct PhotoConfig {
+    /// The measure (tutorial §2.1 table).
+    pub measure: Measure,
+    /// Support-window radius in pixels: the window is `(2r+1)²` (3 → 7×7). The tutorial: the
+    /// domain should grow with resolution and viewpoint separation and shrink with distance;
+    /// larger is more robust, but smooths geometry. SSD/SAD/NCC cost O(1) per pixel for any
+    /// radius; Census/Rank/MI cost O(r²) (Rank O(r⁴)).
+    pub window_radius: u32,
+    /// Grey or colour matching.
+    pub color: ColorMode,
+    /// Raw score → cost map; `None` = [`Normalization::default_for`] the measure.
+    pub normalization: Option<Normalization>,
+    /// Aggregation of each plane's cost slice (after combining neighbours).
+    pub aggregation: Aggregation,
+    /// Occlusion handling: the cost of a pixel on a plane is the mean of the `best_k` lowest
+    /// neighbour costs (Kang, Szeliski, Chai 2001), so up to `n − best_k` neighbours may be
+    /// occluded or out of view. Clamped to the number of neighbours.
+    pub best_k: usize,
+    /// A neighbour scores a window only if at least this fraction of the window's in-image
+    /// reference pixels warp inside the neighbour image (in `(0, 1]`); otherwise it gives no
+    /// evidence (cost 1 before the best-k choice).
+    pub min_valid_fraction: f32,
+    /// Grey-level bins for mutual information (`2..=32`); windows are small, so few bins.
+    pub mi_bins: u32,
+}
+
+impl Default for PhotoConfig {
+    fn default() -> Self {
+        PhotoConfig {
+            measure: Measure::Ncc,
+            window_radius: 3,
+            color: ColorMode::Gray,
+            normalization: None,
+            aggregation: Aggregation::None,
+            best_k: 2,
+            min_valid_fraction: 0.5,
+            mi_bins: 8,
+        }
+    }
+}
+
+impl PhotoConfig {
+    /// The normalisation in effect (explicit or the measure's default).
+    pub fn effective_normalization(&self) -> Normalization {
+        self.normalization
+            .unwrap_or_else(|| Normalization::default_for(self.measure))
+    }
+
+    /// Checks every field; the error names the field and its value.
+    pub fn validate(&self) -> Result<(), PhotoError> {
+        if self.window_radius > 64 {
+            return Err(PhotoError::InvalidConfig(format!(
+                "window_radius must be at most 64 pixels, got {}",
+                self.window_radius
+            )));
+        }
+        if self.best_k == 0 {
+            return Err(PhotoError::InvalidConfig(
+                "best_k must be at least 1".into(),
+            ));
+        }
+        if !(self.min_valid_fraction > 0.0 && self.min_valid_fraction <= 1.0) {
+            return Err(PhotoError::InvalidConfig(format!(
+                "min_valid_fraction must be in (0, 1], got {}",
+                self.min_valid_fraction
+            )));
+        }
+        if !(2..=measures::MAX_MI_BINS as u32).contains(&self.mi_bins) {
+            return Err(PhotoError::InvalidConfig(format!(
+                "mi_bins must be in 2..={}, got {}",
+                measures::MAX_MI_BINS,
+                self.mi_bins
+            )));
+        }
+        self.effective_normalization().validate()?;
+        self.aggregation.validate()
+    }
+}
+
+/// Plane-sweep settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SweepConfig {
+    /// How each (pixel, plane) is scored.
+    pub photo: PhotoConfig,
+    /// Confidence is `second-best − best` cost, the second best taken over planes whose index
+    /// differs from the winner's by more than this (adjacent planes of a fine sweep score
+    /// almost alike at a correct match, which would make every match look ambiguous). 0 =
+    /// plain second-best.
+    pub confidence_exclusion: usize,
+}
+
+impl Default for SweepConfig {
+    fn default() -> Self {
+        SweepConfig {
+            photo: PhotoConfig::default(),
+            confidence_exclusion: 2,
+        }
+    }
+}
+
+impl SweepConfig {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), PhotoError> {
+        self.photo.validate()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_validate_and_bad_fields_are_named() {
+        PhotoConfig::default().validate().unwrap();
+        SweepConfig::default().validate().unwrap();
+        let cfg = PhotoConfig {
+            min_valid_fraction: 0.0,
+            ..Default::default()
+        };
+        assert!(cfg
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("min_valid_fraction"));
+        let cfg = PhotoConfig {
+            mi_bins: 64,
+            ..Default::default()
+        };
+        assert!(cfg.validate().unwrap_err().to_string().contains("mi_bins"));
+        let cfg = PhotoConfig {
+            best_k: 0,
+            ..Default::default()
+        };
+        assert!(cfg.validate().unwrap_err().to_string().contains("best_k"));
+        assert_eq!(
+            PhotoConfig::default().effective_normalization(),
+            Normalization::default_for(Measure::Ncc)
+        );
+    }
+
+    #[test]
+    fn config_round_trips_through_toml() {
+        let cfg = SweepConfig {
+            photo: PhotoConfig {
+                measure: Measure::Census,
+                aggregation: Aggregation::Guided {
+                    radius: 4,
+                    eps: 1e-3,
+                },
+                ..Default::default()
+            },
+            confidence_exclusion: 1,
+        };
+        let text = toml::to_string(&cfg).unwrap();
+        let back: SweepConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, cfg);
+        let partial: PhotoConfig = toml::from_str("measure = \"sad\"").unwrap();
+        assert_eq!(partial.measure, Measure::Sad);
+        assert_eq!(partial.window_radius, 3);
+    }
+}
