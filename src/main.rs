@@ -6,6 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
+use planemap::pipeline::{self, Config, RunOptions};
 use planemap::progress::Progress;
 
 /// Piecewise-planar multi-view stereo for buildings: planemaps, depth and normal maps, planes
@@ -38,8 +39,47 @@ enum Command {
     /// Summarise a COLMAP sparse model and warn about problems.
     #[command(after_help = "Example:\n  planemap info out/room/sparse --images out/room/images")]
     Info(InfoArgs),
-    /// Render the embedded demo scene into ./planemap-demo/.
+    /// Reconstruct planemaps, depth/normal maps, planes and fused points from a COLMAP
+    /// model (or a PMVS workspace).
+    #[command(after_help = "Examples:
+  planemap run --model ws/sparse --images ws/images -o out
+  planemap run --pmvs ws/pmvs -o out --config my.toml --set planemap.lambda=0.5
+  planemap run --model ws/sparse --images ws/images -o out --views 0,3 --resume")]
+    Run(RunArgs),
+    /// Render the embedded demo scene into ./planemap-demo/ and reconstruct it.
     Demo(DemoArgs),
+}
+
+#[derive(Args)]
+struct RunArgs {
+    /// COLMAP sparse model directory (text or binary).
+    #[arg(long, conflicts_with = "pmvs", required_unless_present = "pmvs")]
+    model: Option<PathBuf>,
+    /// Images directory of the COLMAP model.
+    #[arg(long, requires = "model")]
+    images: Option<PathBuf>,
+    /// A PMVS workspace (txt/, models/*.patch, visualize/) instead of a COLMAP model.
+    #[arg(long)]
+    pmvs: Option<PathBuf>,
+    /// Output directory.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Configuration file (TOML; sections normals, axes, hypotheses, planemap, solver,
+    /// fusion).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Override a config value, e.g. --set planemap.lambda=0.5 (repeatable).
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    overrides: Vec<String>,
+    /// Only these views (comma-separated indices in image-id order).
+    #[arg(long, value_delimiter = ',')]
+    views: Option<Vec<usize>>,
+    /// Skip views whose outputs already exist.
+    #[arg(long)]
+    resume: bool,
+    /// Ground truth directory to score against (default: ../gt beside the model, if present).
+    #[arg(long)]
+    gt: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -84,6 +124,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Synth(a) => synth(a, &progress),
         Command::Info(a) => info(a),
+        Command::Run(a) => run(a, &progress),
         Command::Demo(a) => demo(a, &progress),
     };
     match result {
@@ -135,10 +176,105 @@ fn info(a: InfoArgs) -> Result<()> {
     Ok(())
 }
 
+fn run(a: RunArgs, progress: &Progress) -> Result<()> {
+    let mut config = match &a.config {
+        Some(p) => Config::from_path(p)?,
+        None => Config::default(),
+    };
+    config = config.with_overrides(&a.overrides)?;
+    let (scene, gt) = if let Some(pmvs) = &a.pmvs {
+        let scene = planemap::io::pmvs::read_pmvs(pmvs)?;
+        (scene, a.gt.clone().or_else(|| sibling_gt(pmvs)))
+    } else {
+        let model_dir = a.model.as_ref().context("--model or --pmvs is required")?;
+        let model = planemap::io::colmap::read_model(model_dir)?;
+        let images = a.images.clone().or_else(|| {
+            model_dir
+                .parent()
+                .map(|p| p.join("images"))
+                .filter(|p| p.is_dir())
+        });
+        let scene = model.to_scene(images.as_deref())?;
+        (scene, a.gt.clone().or_else(|| sibling_gt(model_dir)))
+    };
+    let opts = RunOptions {
+        views: a.views.clone(),
+        resume: a.resume,
+    };
+    reconstruct(&scene, &config, &a.output, &opts, gt.as_deref(), progress)
+}
+
+/// `DIR/../gt` for a model or workspace at `DIR`, if it exists.
+fn sibling_gt(dir: &std::path::Path) -> Option<PathBuf> {
+    let gt = dir.parent()?.join("gt");
+    gt.join("planes.json").is_file().then_some(gt)
+}
+
+fn reconstruct(
+    scene: &planemap::Scene,
+    config: &Config,
+    out: &std::path::Path,
+    opts: &RunOptions,
+    gt: Option<&std::path::Path>,
+    progress: &Progress,
+) -> Result<()> {
+    let (prepared, views, summary) = pipeline::run(scene, config, out, opts, progress)
+        .with_context(|| format!("reconstructing into {}", out.display()))?;
+    println!(
+        "R = {:.4}; {} dominant directions (angles: {}); {} plane hypotheses",
+        summary.scale,
+        summary.directions.len(),
+        summary
+            .direction_angles_deg
+            .iter()
+            .map(|(i, j, a)| format!("d{}-d{} {:.1}°", i + 1, j + 1, a))
+            .collect::<Vec<_>>()
+            .join(", "),
+        summary.hypotheses
+    );
+    let [t_n, t_a, t_h, t_v, t_f] = summary.stage_seconds;
+    println!(
+        "time: normals {t_n:.2} s, axes {t_a:.2} s, hypotheses {t_h:.2} s, planemaps {t_v:.2} s ({} views), fusion {t_f:.2} s",
+        summary.views.len()
+    );
+    println!(
+        "wrote {} planemaps, depth and normal maps, planes.json, fused.ply ({} points) to {}",
+        summary.views.len(),
+        summary.fused_points,
+        out.display()
+    );
+    if let Some(gt) = gt {
+        let undistorted = scene.undistorted();
+        let report = planemap::eval::evaluate(
+            gt,
+            &undistorted,
+            &prepared.hypotheses,
+            &views,
+            &planemap::eval::EvalConfig::default(),
+        )?;
+        println!(
+            "against ground truth ({}): depth within 1%: {:.1}% of pixels; plane labels correct: {:.1}% of planar pixels",
+            gt.display(),
+            100.0 * report.total.depth_accuracy(),
+            100.0 * report.total.plane_accuracy()
+        );
+    }
+    Ok(())
+}
+
 fn demo(a: DemoArgs, progress: &Progress) -> Result<()> {
     let spec = planemap::workspace::demo_spec()?;
     let opts = planemap::synth::RenderOptions::default();
     let summary = planemap::workspace::render_to_workspace(&spec, &opts, &a.output, progress)?;
     println!("{summary}");
-    Ok(())
+    let model = planemap::io::colmap::read_model(&a.output.join("sparse"))?;
+    let scene = model.to_scene(Some(&a.output.join("images")))?;
+    reconstruct(
+        &scene,
+        &Config::default(),
+        &a.output.join("reconstruction"),
+        &RunOptions::default(),
+        Some(&a.output.join("gt")),
+        progress,
+    )
 }

@@ -613,7 +613,13 @@ pub fn write_view_outputs(
         .labels
         .iter()
         .zip(&result.depth)
-        .map(|(&l, &z)| if z > 0.0 { (l + 1).min(u16::MAX as u32) as u16 } else { 0 })
+        .map(|(&l, &z)| {
+            if z > 0.0 {
+                (l + 1).min(u16::MAX as u32) as u16
+            } else {
+                0
+            }
+        })
         .collect();
     let vis_path = out.join("planemaps").join(format!("{stem}_vis.png"));
     let vis = label_colors(&ids, w, h);
@@ -634,7 +640,8 @@ pub fn write_view_outputs(
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| view.name.clone());
     write_dense_map_path(
-        &out.join("stereo/depth_maps").join(format!("{name}.geometric.bin")),
+        &out.join("stereo/depth_maps")
+            .join(format!("{name}.geometric.bin")),
         &depth,
     )?;
     let normals = ImageF32 {
@@ -644,11 +651,17 @@ pub fn write_view_outputs(
         data: result.normals.iter().flatten().copied().collect(),
     };
     write_dense_map_path(
-        &out.join("stereo/normal_maps").join(format!("{name}.geometric.bin")),
+        &out.join("stereo/normal_maps")
+            .join(format!("{name}.geometric.bin")),
         &normals,
     )?;
     // The label map last: its presence marks the view complete for --resume.
-    write_label_png(&out.join("planemaps").join(format!("{stem}.png")), w, h, &ids)?;
+    write_label_png(
+        &out.join("planemaps").join(format!("{stem}.png")),
+        w,
+        h,
+        &ids,
+    )?;
     Ok(())
 }
 
@@ -664,7 +677,8 @@ fn load_view_outputs(
     let (w, h, ids) =
         crate::io::labelpng::read_label_png(&out.join("planemaps").join(format!("{stem}.png")))
             .ok()?;
-    let depth = crate::io::pfm::read_pfm_path(&out.join("depth").join(format!("{stem}.pfm"))).ok()?;
+    let depth =
+        crate::io::pfm::read_pfm_path(&out.join("depth").join(format!("{stem}.pfm"))).ok()?;
     if (w, h) != (view.camera.width, view.camera.height)
         || (depth.width, depth.height) != (w, h)
         || ids
@@ -679,7 +693,8 @@ fn load_view_outputs(
             if id == 0 {
                 return [0.0; 3];
             }
-            let n = view.cam_from_world.rotation * prepared.hypotheses[id as usize - 1].plane.normal;
+            let n =
+                view.cam_from_world.rotation * prepared.hypotheses[id as usize - 1].plane.normal;
             [n.x as f32, n.y as f32, n.z as f32]
         })
         .collect();
@@ -687,7 +702,10 @@ fn load_view_outputs(
         view_index,
         width: w,
         height: h,
-        labels: ids.iter().map(|&id| (id as u32).saturating_sub(1)).collect(),
+        labels: ids
+            .iter()
+            .map(|&id| (id as u32).saturating_sub(1))
+            .collect(),
         depth: depth.data,
         normals,
         candidate_labels: 0,
@@ -736,8 +754,7 @@ pub fn fuse(
                     }
                     if agree >= cfg.min_consistent_views {
                         let n = vr.normals[p];
-                        let n_world =
-                            rot_inv * Vector3::new(n[0] as f64, n[1] as f64, n[2] as f64);
+                        let n_world = rot_inv * Vector3::new(n[0] as f64, n[1] as f64, n[2] as f64);
                         pts.push((x_world, n_world));
                     }
                 }

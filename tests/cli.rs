@@ -13,7 +13,16 @@ fn planemap() -> Command {
 
 fn synth_demo(dir: &Path) {
     let out = planemap()
-        .args(["-q", "synth", "scenes/demo.toml", "--width", "96", "--height", "72", "-o"])
+        .args([
+            "-q",
+            "synth",
+            "scenes/demo.toml",
+            "--width",
+            "96",
+            "--height",
+            "72",
+            "-o",
+        ])
         .arg(dir)
         .output()
         .unwrap();
@@ -134,6 +143,9 @@ fn bad_model_fails_without_panic() {
     let out = planemap().arg("info").arg(tmp.path()).output().unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("cameras.txt") && err.contains("FISHEYE"), "{err}");
+    assert!(
+        err.contains("cameras.txt") && err.contains("FISHEYE"),
+        "{err}"
+    );
     assert!(!err.contains("panicked"), "{err}");
 }

@@ -132,7 +132,11 @@ fn validation_errors_are_specific() {
     // A walk whose target is one of its path points has no view direction there.
     let bad = DEMO.replacen("target = [3.3, 2.6, 1.0]", "target = [0.6, 0.9, 1.5]", 1);
     let err = SceneSpec::from_toml_str(&bad, "demo.toml").unwrap_err();
-    assert!(err.to_string().contains("rigs[0]: a path point equals the target"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("rigs[0]: a path point equals the target"),
+        "{err}"
+    );
     // No rigs at all: zero views.
     let mut spec = demo();
     spec.rigs.clear();

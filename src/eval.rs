@@ -1,0 +1,276 @@
+//! Evaluation against synthetic ground truth (`gt/` of a `planemap synth` workspace): depth
+//! accuracy and plane-label accuracy per view and overall.
+
+use std::path::Path;
+
+use serde::Serialize;
+use thiserror::Error;
+
+use crate::hypotheses::PlaneHypothesis;
+use crate::io::labelpng::{read_label_png, LabelPngError};
+use crate::io::pfm::{read_pfm_path, PfmError};
+use crate::pipeline::{output_stem, ViewPlanemap};
+use crate::scene::Scene;
+use crate::workspace::GtPlaneRecord;
+
+/// Errors of loading ground truth.
+#[derive(Debug, Error)]
+pub enum EvalError {
+    /// A depth map could not be read.
+    #[error(transparent)]
+    Pfm(#[from] PfmError),
+    /// A plane-id map could not be read.
+    #[error(transparent)]
+    LabelPng(#[from] LabelPngError),
+    /// planes.json is missing or malformed.
+    #[error("{path}: {message}")]
+    Planes {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// Ground truth and result disagree in size.
+    #[error("view {view}: ground truth is {gt_w}x{gt_h} but the result is {w}x{h}")]
+    Size {
+        /// The view's image name.
+        view: String,
+        /// Ground-truth width.
+        gt_w: u32,
+        /// Ground-truth height.
+        gt_h: u32,
+        /// Result width.
+        w: u32,
+        /// Result height.
+        h: u32,
+    },
+}
+
+/// Tolerances of the evaluation.
+#[derive(Debug, Clone, Copy)]
+pub struct EvalConfig {
+    /// Relative depth error counted as accurate (0.01 = 1%).
+    pub depth_tolerance: f64,
+    /// A hypothesis matches a ground-truth plane if their normals differ by at most this
+    /// (degrees) …
+    pub match_angle_deg: f64,
+    /// … and their offsets by at most this fraction of the median ground-truth depth.
+    pub match_offset_fraction: f64,
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        EvalConfig {
+            depth_tolerance: 0.01,
+            match_angle_deg: 3.0,
+            match_offset_fraction: 0.01,
+        }
+    }
+}
+
+/// Scores of one view (or all views pooled).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Scores {
+    /// Pixels with ground-truth depth.
+    pub gt_pixels: u64,
+    /// Of those, pixels whose depth is within the tolerance.
+    pub depth_accurate: u64,
+    /// Pixels on a ground-truth plane.
+    pub planar_pixels: u64,
+    /// Of those, pixels whose hypothesis matches that plane.
+    pub plane_correct: u64,
+}
+
+impl Scores {
+    /// Share of ground-truth pixels with accurate depth.
+    pub fn depth_accuracy(&self) -> f64 {
+        self.depth_accurate as f64 / self.gt_pixels.max(1) as f64
+    }
+
+    /// Share of planar pixels labelled with the matching plane.
+    pub fn plane_accuracy(&self) -> f64 {
+        self.plane_correct as f64 / self.planar_pixels.max(1) as f64
+    }
+
+    fn add(&mut self, o: &Scores) {
+        self.gt_pixels += o.gt_pixels;
+        self.depth_accurate += o.depth_accurate;
+        self.planar_pixels += o.planar_pixels;
+        self.plane_correct += o.plane_correct;
+    }
+}
+
+/// Per-view and pooled scores.
+#[derive(Debug, Clone, Serialize)]
+pub struct EvalReport {
+    /// (image name, scores) per evaluated view.
+    pub views: Vec<(String, Scores)>,
+    /// All views pooled.
+    pub total: Scores,
+    /// For each hypothesis, the ground-truth plane id it matches (0 = none).
+    pub hypothesis_match: Vec<u16>,
+}
+
+/// Reads `gt/planes.json`.
+pub fn read_gt_planes(gt_dir: &Path) -> Result<Vec<GtPlaneRecord>, EvalError> {
+    let path = gt_dir.join("planes.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| EvalError::Planes {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    serde_json::from_str(&text).map_err(|e| EvalError::Planes {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })
+}
+
+/// Matches each hypothesis to the closest ground-truth plane within the tolerances (by
+/// angle, then offset); 0 when none is close enough.
+pub fn match_hypotheses(
+    hypotheses: &[PlaneHypothesis],
+    gt: &[GtPlaneRecord],
+    offset_tolerance: f64,
+    angle_deg: f64,
+) -> Vec<u16> {
+    let cos_tol = angle_deg.to_radians().cos();
+    hypotheses
+        .iter()
+        .map(|h| {
+            let mut best: Option<(f64, u16)> = None;
+            for g in gt {
+                let n = nalgebra::Vector3::from(g.normal);
+                let c = h.plane.normal.dot(&n);
+                // Planes are unoriented: compare with the flipped one too.
+                let (c, d) = if c >= 0.0 {
+                    (c, (h.plane.offset - g.offset).abs())
+                } else {
+                    (-c, (h.plane.offset + g.offset).abs())
+                };
+                if c >= cos_tol && d <= offset_tolerance && best.is_none_or(|(bd, _)| d < bd) {
+                    best = Some((d, g.id));
+                }
+            }
+            best.map_or(0, |(_, id)| id)
+        })
+        .collect()
+}
+
+/// Scores the planemaps of `views` against the workspace's `gt/` directory.
+pub fn evaluate(
+    gt_dir: &Path,
+    scene: &Scene,
+    hypotheses: &[PlaneHypothesis],
+    views: &[ViewPlanemap],
+    cfg: &EvalConfig,
+) -> Result<EvalReport, EvalError> {
+    let gt_planes = read_gt_planes(gt_dir)?;
+    let mut per_view = Vec::new();
+    let mut all_depths = Vec::new();
+    let mut gts = Vec::new();
+    for v in views {
+        let name = &scene.views[v.view_index].name;
+        let stem = output_stem(name);
+        let depth = read_pfm_path(&gt_dir.join("depth").join(format!("{stem}.pfm")))?;
+        let (w, h, ids) = read_label_png(&gt_dir.join("planes").join(format!("{stem}.png")))?;
+        if (w, h) != (v.width, v.height) || (depth.width, depth.height) != (w, h) {
+            return Err(EvalError::Size {
+                view: name.clone(),
+                gt_w: w,
+                gt_h: h,
+                w: v.width,
+                h: v.height,
+            });
+        }
+        all_depths.extend(depth.data.iter().filter(|&&z| z > 0.0).copied());
+        gts.push((name.clone(), depth, ids));
+    }
+    all_depths.sort_by(f32::total_cmp);
+    let median_depth = all_depths.get(all_depths.len() / 2).copied().unwrap_or(1.0) as f64;
+    let matches = match_hypotheses(
+        hypotheses,
+        &gt_planes,
+        cfg.match_offset_fraction * median_depth,
+        cfg.match_angle_deg,
+    );
+    let mut total = Scores::default();
+    for (v, (name, depth, ids)) in views.iter().zip(gts) {
+        let mut s = Scores::default();
+        for p in 0..depth.data.len() {
+            let gz = depth.data[p] as f64;
+            if gz <= 0.0 {
+                continue;
+            }
+            s.gt_pixels += 1;
+            let z = v.depth[p] as f64;
+            if z > 0.0 && (z - gz).abs() <= cfg.depth_tolerance * gz {
+                s.depth_accurate += 1;
+            }
+            if ids[p] > 0 {
+                s.planar_pixels += 1;
+                let l = v.labels[p] as usize;
+                if z > 0.0 && l < matches.len() && matches[l] == ids[p] {
+                    s.plane_correct += 1;
+                }
+            }
+        }
+        total.add(&s);
+        per_view.push((name, s));
+    }
+    Ok(EvalReport {
+        views: per_view,
+        total,
+        hypothesis_match: matches,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scores_are_ratios() {
+        let s = Scores {
+            gt_pixels: 200,
+            depth_accurate: 150,
+            planar_pixels: 100,
+            plane_correct: 99,
+        };
+        assert_eq!(s.depth_accuracy(), 0.75);
+        assert_eq!(s.plane_accuracy(), 0.99);
+        assert_eq!(Scores::default().depth_accuracy(), 0.0);
+    }
+
+    #[test]
+    fn hypotheses_match_flipped_and_reject_far_planes() {
+        use crate::geometry::Plane;
+        use nalgebra::Vector3;
+        let gt = vec![
+            GtPlaneRecord {
+                id: 1,
+                normal: [0.0, 0.0, 1.0],
+                offset: 2.0,
+                label: "floor".into(),
+                pixels: 1,
+            },
+            GtPlaneRecord {
+                id: 2,
+                normal: [1.0, 0.0, 0.0],
+                offset: 0.0,
+                label: "wall".into(),
+                pixels: 1,
+            },
+        ];
+        let hyp = |n: Vector3<f64>, d: f64| PlaneHypothesis {
+            id: 0,
+            plane: Plane::new(n, d),
+            axis: None,
+            support: 1,
+        };
+        let hs = vec![
+            hyp(Vector3::new(0.0, 0.0, -1.0), -2.005),
+            hyp(Vector3::new(1.0, 0.0, 0.0), 0.5),
+            hyp(Vector3::new(1.0, 0.0, 0.01), 0.0),
+        ];
+        assert_eq!(match_hypotheses(&hs, &gt, 0.01, 3.0), vec![1, 0, 2]);
+    }
+}
