@@ -51,10 +51,10 @@ pub enum EvalError {
 pub struct EvalConfig {
     /// Relative depth error counted as accurate (0.01 = 1%).
     pub depth_tolerance: f64,
-    /// A hypothesis matches a ground-truth plane if their normals differ by at most this
+    /// For [`match_hypotheses`] (geometric matching, a diagnostic): maximal normal angle
     /// (degrees) …
     pub match_angle_deg: f64,
-    /// … and their offsets by at most this fraction of the median ground-truth depth.
+    /// … and offset difference as a fraction of the median ground-truth depth.
     pub match_offset_fraction: f64,
 }
 
@@ -107,8 +107,10 @@ pub struct EvalReport {
     pub views: Vec<(String, Scores)>,
     /// All views pooled.
     pub total: Scores,
-    /// For each hypothesis, the ground-truth plane id it matches (0 = none).
+    /// For each hypothesis, the ground-truth plane id it overlaps most (0 = none).
     pub hypothesis_match: Vec<u16>,
+    /// For each hypothesis, the ground-truth plane id it matches geometrically (0 = none).
+    pub hypothesis_geometric_match: Vec<u16>,
 }
 
 /// Reads `gt/planes.json`.
@@ -155,6 +157,34 @@ pub fn match_hypotheses(
         .collect()
 }
 
+/// Matches each hypothesis to the ground-truth plane it overlaps most, pooled over all views
+/// (many-to-one: splitting a plane into several hypotheses is not penalised here, merging
+/// two planes into one is). Only pixels where the result has a depth count. 0 = no overlap.
+pub fn match_by_overlap<'a>(
+    num_hypotheses: usize,
+    views: impl Iterator<Item = (&'a ViewPlanemap, &'a crate::raster::ImageF32, &'a [u16])>,
+) -> Vec<u16> {
+    use std::collections::BTreeMap;
+    let mut overlap: Vec<BTreeMap<u16, u64>> = vec![BTreeMap::new(); num_hypotheses];
+    for (v, _, ids) in views {
+        for (p, &gt_id) in ids.iter().enumerate() {
+            let l = v.labels[p] as usize;
+            if gt_id > 0 && v.depth[p] > 0.0 && l < num_hypotheses {
+                *overlap[l].entry(gt_id).or_default() += 1;
+            }
+        }
+    }
+    overlap
+        .iter()
+        .map(|m| {
+            // Largest overlap; ties to the smaller id (BTreeMap order) for determinism.
+            m.iter()
+                .fold((0u16, 0u64), |best, (&id, &n)| if n > best.1 { (id, n) } else { best })
+                .0
+        })
+        .collect()
+}
+
 /// Scores the planemaps of `views` against the workspace's `gt/` directory.
 pub fn evaluate(
     gt_dir: &Path,
@@ -186,11 +216,9 @@ pub fn evaluate(
     }
     all_depths.sort_by(f32::total_cmp);
     let median_depth = all_depths.get(all_depths.len() / 2).copied().unwrap_or(1.0) as f64;
-    let matches = match_hypotheses(
-        hypotheses,
-        &gt_planes,
-        cfg.match_offset_fraction * median_depth,
-        cfg.match_angle_deg,
+    let matches = match_by_overlap(
+        hypotheses.len(),
+        views.iter().zip(&gts).map(|(v, (_, d, ids))| (v, d, ids.as_slice())),
     );
     let mut total = Scores::default();
     for (v, (name, depth, ids)) in views.iter().zip(gts) {
@@ -219,6 +247,12 @@ pub fn evaluate(
     Ok(EvalReport {
         views: per_view,
         total,
+        hypothesis_geometric_match: match_hypotheses(
+            hypotheses,
+            &gt_planes,
+            cfg.match_offset_fraction * median_depth,
+            cfg.match_angle_deg,
+        ),
         hypothesis_match: matches,
     })
 }
@@ -238,6 +272,38 @@ mod tests {
         assert_eq!(s.depth_accuracy(), 0.75);
         assert_eq!(s.plane_accuracy(), 0.99);
         assert_eq!(Scores::default().depth_accuracy(), 0.0);
+    }
+
+    #[test]
+    fn relabelled_planemap_scores_full_after_matching() {
+        // Ground truth: left half plane 3, right half plane 7. The result uses hypotheses
+        // 1 and 0 for them (any names): matching must map 1→3, 0→7 and score 100%.
+        let (w, h) = (8u32, 4u32);
+        let gt_ids: Vec<u16> = (0..w * h).map(|p| if p % w < 4 { 3 } else { 7 }).collect();
+        let gt_depth = crate::raster::ImageF32::filled(w, h, 1, 2.0);
+        let view = ViewPlanemap {
+            view_index: 0,
+            width: w,
+            height: h,
+            labels: gt_ids.iter().map(|&g| if g == 3 { 1 } else { 0 }).collect(),
+            depth: vec![2.0; (w * h) as usize],
+            normals: vec![[0.0, 0.0, -1.0]; (w * h) as usize],
+            candidate_labels: 2,
+            energy: (0.0, 0.0),
+            cycles: 0,
+            seconds: (0.0, 0.0),
+        };
+        let m = match_by_overlap(2, std::iter::once((&view, &gt_depth, gt_ids.as_slice())));
+        assert_eq!(m, vec![7, 3]);
+        // One pixel wrong: exactly 1/32 lost.
+        let mut wrong = view.clone();
+        wrong.labels[0] = 0;
+        let m = match_by_overlap(2, std::iter::once((&wrong, &gt_depth, gt_ids.as_slice())));
+        assert_eq!(m, vec![7, 3]);
+        let correct = (0..(w * h) as usize)
+            .filter(|&p| m[wrong.labels[p] as usize] == gt_ids[p])
+            .count();
+        assert_eq!(correct, 31);
     }
 
     #[test]
