@@ -55,7 +55,7 @@ struct PreparedCloud {
 fn prepare(inputs: &ViewInputs, config: &PlanemapConfig, pinhole: &Pinhole) -> PreparedCloud {
     let view = inputs.view();
     let (w, h) = (view.camera.width, view.camera.height);
-    let centres_world: Vec<Vector3<f64>> = inputs
+    let centres_cam: Vec<Vector3<f64>> = inputs
         .views
         .iter()
         .map(|v| (view.cam_from_world * Point3::from(v.center())).coords)
@@ -80,7 +80,7 @@ fn prepare(inputs: &ViewInputs, config: &PlanemapConfig, pinhole: &Pinhole) -> P
             track
                 .iter()
                 .filter(|&&j| j as usize != inputs.view_index)
-                .map(|&j| centres_world[j as usize]),
+                .map(|&j| centres_cam[j as usize]),
         );
         points.push(PreparedPoint {
             cam,
