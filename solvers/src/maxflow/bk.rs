@@ -255,8 +255,8 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
                 continue;
             }
             assert!(self.nodes[pu].parent != ORPHAN);
-            let mut arcs = self.topo.arcs(p);
-            while let Some(a) = arcs.next() {
+            let arcs = self.topo.arcs(p);
+            for a in arcs {
                 let q = self.topo.head(a) as usize;
                 if !self.nodes[pu].sink() && self.cap[a as usize].is_pos() {
                     assert!(
@@ -317,8 +317,8 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
             if !rp.is_pos() {
                 continue;
             }
-            let mut arcs = self.topo.arcs(p);
-            while let Some(a) = arcs.next() {
+            let arcs = self.topo.arcs(p);
+            for a in arcs {
                 let c = at!(self.cap, a as usize);
                 if !c.is_pos() {
                     continue;
@@ -402,8 +402,8 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
             }
             if !in_tree || at!(self.nodes, iu).parent == NONE {
                 // A free node next to a raised arc: wake its tree neighbours.
-                let mut arcs = self.topo.arcs(i);
-                while let Some(a) = arcs.next() {
+                let arcs = self.topo.arcs(i);
+                for a in arcs {
                     let j = self.topo.head(a);
                     if at!(self.nodes, j as usize).parent != NONE {
                         self.activate(j);
@@ -417,8 +417,8 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
     }
 
     fn orphan_children(&mut self, i: u32, tree_sink: bool) {
-        let mut arcs = self.topo.arcs(i);
-        while let Some(a) = arcs.next() {
+        let arcs = self.topo.arcs(i);
+        for a in arcs {
             let j = self.topo.head(a) as usize;
             let pj = at!(self.nodes, j).parent;
             if at!(self.nodes, j).sink() == tree_sink
@@ -472,9 +472,9 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
     fn grow(&mut self, i: u32) -> u32 {
         let iu = i as usize;
         let (ti, di) = (at!(self.nodes, iu).ts, at!(self.nodes, iu).dist());
-        let mut arcs = self.topo.arcs(i);
+        let arcs = self.topo.arcs(i);
         if !at!(self.nodes, iu).sink() {
-            while let Some(a) = arcs.next() {
+            for a in arcs {
                 if at!(self.cap, a as usize).is_pos() {
                     let j = self.topo.head(a);
                     let ju = j as usize;
@@ -494,7 +494,7 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
                 }
             }
         } else {
-            while let Some(a) = arcs.next() {
+            for a in arcs {
                 let s = self.topo.sister(a);
                 if at!(self.cap, s as usize).is_pos() {
                     let j = self.topo.head(a);
@@ -636,8 +636,8 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
             let is_sink = at!(self.nodes, iu).sink();
             let mut best = NONE;
             let mut dmin = INF_DIST;
-            let mut arcs = self.topo.arcs(i);
-            while let Some(a) = arcs.next() {
+            let arcs = self.topo.arcs(i);
+            for a in arcs {
                 let residual = if is_sink {
                     at!(self.cap, a as usize)
                 } else {
@@ -661,8 +661,8 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
                 at_mut!(self.nodes, iu).set_dist(dmin + 1);
             } else {
                 at_mut!(self.nodes, iu).parent = NONE;
-                let mut arcs = self.topo.arcs(i);
-                while let Some(a) = arcs.next() {
+                let arcs = self.topo.arcs(i);
+                for a in arcs {
                     let j = self.topo.head(a);
                     let ju = j as usize;
                     let pj = at!(self.nodes, ju).parent;
