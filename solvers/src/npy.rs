@@ -345,7 +345,7 @@ mod tests {
     fn round_trip_all_writable_types() -> Result<(), NpyError> {
         let mut buf = Vec::new();
         write_npy(&mut buf, &[2, 3], &[1.5f64, -2.0, 3.0, 4.0, 5.0, 6.25])?;
-        assert_eq!(buf.len() % 64, 48 % 64); // header padded to 64, then 48 data bytes
+        assert_eq!((buf.len() - 48) % 64, 0); // header padded to 64 bytes, then 48 data bytes
         let a = read_npy(&buf[..])?;
         assert_eq!(a.shape, vec![2, 3]);
         assert_eq!(a.to_f64(), vec![1.5, -2.0, 3.0, 4.0, 5.0, 6.25]);

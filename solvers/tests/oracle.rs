@@ -20,12 +20,12 @@ impl Net {
         let mut g = DiGraph::<(), u64>::new();
         let nodes: Vec<NodeIndex> = (0..self.n + 2).map(|_| g.add_node(())).collect();
         let (src, snk) = (nodes[self.n], nodes[self.n + 1]);
-        for i in 0..self.n {
+        for (i, &node) in nodes.iter().enumerate().take(self.n) {
             if self.s[i] > 0 {
-                g.add_edge(src, nodes[i], self.s[i] as u64);
+                g.add_edge(src, node, self.s[i] as u64);
             }
             if self.t[i] > 0 {
-                g.add_edge(nodes[i], snk, self.t[i] as u64);
+                g.add_edge(node, snk, self.t[i] as u64);
             }
         }
         for &(p, q, c, r) in &self.edges {

@@ -8,6 +8,28 @@
 use super::topology::Topology;
 use crate::cost::Cost;
 
+/// Unchecked indexing for the solver's hot loops. Every index is a node or arc produced by
+/// the topology (validated when the network was built) or a stored parent arc, so it is in
+/// range by construction; debug builds still check.
+macro_rules! at {
+    ($v:expr, $i:expr) => {{
+        let i = $i;
+        debug_assert!(i < $v.len());
+        // SAFETY: see the macro's doc: indices come from the topology and are in range.
+        *unsafe { $v.get_unchecked(i) }
+    }};
+}
+macro_rules! at_mut {
+    ($v:expr, $i:expr) => {
+        (*{
+            let i = $i;
+            debug_assert!(i < $v.len());
+            // SAFETY: as for `at!`.
+            unsafe { $v.get_unchecked_mut(i) }
+        })
+    };
+}
+
 const NONE: u32 = u32::MAX;
 const TERMINAL: u32 = u32::MAX - 1;
 const ORPHAN: u32 = u32::MAX - 2;
@@ -233,8 +255,8 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
                 continue;
             }
             assert!(self.nodes[pu].parent != ORPHAN);
-            let mut arcs = self.topo.arcs(p);
-            while let Some(a) = arcs.next() {
+            let arcs = self.topo.arcs(p);
+            for a in arcs {
                 let q = self.topo.head(a) as usize;
                 if !self.nodes[pu].sink() && self.cap[a as usize].is_pos() {
                     assert!(
@@ -254,13 +276,13 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
 
     #[inline(always)]
     fn activate(&mut self, i: u32) {
-        if self.nodes[i as usize].next == NONE {
+        if at!(self.nodes, i as usize).next == NONE {
             if self.q_last == NONE {
                 self.q_first = i;
             } else {
-                self.nodes[self.q_last as usize].next = i;
+                at_mut!(self.nodes, self.q_last as usize).next = i;
             }
-            self.nodes[i as usize].next = i;
+            at_mut!(self.nodes, i as usize).next = i;
             self.q_last = i;
         }
     }
@@ -272,15 +294,15 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
             if i == NONE {
                 return None;
             }
-            let n = self.nodes[i as usize].next;
+            let n = at!(self.nodes, i as usize).next;
             if n == i {
                 self.q_first = NONE;
                 self.q_last = NONE;
             } else {
                 self.q_first = n;
             }
-            self.nodes[i as usize].next = NONE;
-            if self.nodes[i as usize].parent != NONE {
+            at_mut!(self.nodes, i as usize).next = NONE;
+            if at!(self.nodes, i as usize).parent != NONE {
                 return Some(i);
             }
         }
@@ -291,32 +313,32 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
     /// here is far cheaper than discovering each path by tree growth.
     fn push_short_paths(&mut self) {
         for p in 0..self.tr.len() as u32 {
-            let mut rp = self.tr[p as usize];
+            let mut rp = at!(self.tr, p as usize);
             if !rp.is_pos() {
                 continue;
             }
-            let mut arcs = self.topo.arcs(p);
-            while let Some(a) = arcs.next() {
-                let c = self.cap[a as usize];
+            let arcs = self.topo.arcs(p);
+            for a in arcs {
+                let c = at!(self.cap, a as usize);
                 if !c.is_pos() {
                     continue;
                 }
                 let q = self.topo.head(a) as usize;
-                let rq = -self.tr[q];
+                let rq = -at!(self.tr, q);
                 if !rq.is_pos() {
                     continue;
                 }
                 let b = rp.min_of(rq).min_of(c);
                 rp -= b;
-                self.tr[q] += b;
-                self.cap[a as usize] = c - b;
-                self.cap[self.topo.sister(a) as usize] += b;
+                at_mut!(self.tr, q) += b;
+                at_mut!(self.cap, a as usize) = c - b;
+                at_mut!(self.cap, self.topo.sister(a) as usize) += b;
                 self.flow += b.widen();
                 if !rp.is_pos() {
                     break;
                 }
             }
-            self.tr[p as usize] = rp;
+            at_mut!(self.tr, p as usize) = rp;
         }
     }
 
@@ -327,21 +349,21 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         self.time = 0;
         self.orphans.clear();
         for i in 0..self.tr.len() {
-            self.nodes[i].next = NONE;
-            self.nodes[i].ts = 0;
-            let r = self.tr[i];
+            at_mut!(self.nodes, i).next = NONE;
+            at_mut!(self.nodes, i).ts = 0;
+            let r = at!(self.tr, i);
             if r > T::ZERO {
-                self.nodes[i].parent = TERMINAL;
-                self.nodes[i].set_sink(false);
-                self.nodes[i].set_dist(1);
+                at_mut!(self.nodes, i).parent = TERMINAL;
+                at_mut!(self.nodes, i).set_sink(false);
+                at_mut!(self.nodes, i).set_dist(1);
                 self.activate(i as u32);
             } else if r < T::ZERO {
-                self.nodes[i].parent = TERMINAL;
-                self.nodes[i].set_sink(true);
-                self.nodes[i].set_dist(1);
+                at_mut!(self.nodes, i).parent = TERMINAL;
+                at_mut!(self.nodes, i).set_sink(true);
+                at_mut!(self.nodes, i).set_dist(1);
                 self.activate(i as u32);
             } else {
-                self.nodes[i].parent = NONE;
+                at_mut!(self.nodes, i).parent = NONE;
             }
         }
         for &i in &self.changed {
@@ -357,33 +379,33 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         for &i in &changed {
             self.is_changed[i as usize] = false;
             let iu = i as usize;
-            let r = self.tr[iu];
-            let in_tree = self.nodes[iu].parent != NONE;
-            let was_sink = self.nodes[iu].sink();
+            let r = at!(self.tr, iu);
+            let in_tree = at!(self.nodes, iu).parent != NONE;
+            let was_sink = at!(self.nodes, iu).sink();
             if r != T::ZERO {
                 let want_sink = r < T::ZERO;
                 if in_tree && want_sink != was_sink {
                     // i changes tree: its children lose their path to the old terminal.
                     self.orphan_children(i, was_sink);
                 }
-                self.nodes[iu].parent = TERMINAL;
-                self.nodes[iu].set_sink(want_sink);
-                self.nodes[iu].set_dist(1);
-                self.nodes[iu].ts = self.time;
+                at_mut!(self.nodes, iu).parent = TERMINAL;
+                at_mut!(self.nodes, iu).set_sink(want_sink);
+                at_mut!(self.nodes, iu).set_dist(1);
+                at_mut!(self.nodes, iu).ts = self.time;
                 self.activate(i);
-            } else if in_tree && self.nodes[iu].parent == TERMINAL {
-                self.nodes[iu].parent = ORPHAN;
+            } else if in_tree && at!(self.nodes, iu).parent == TERMINAL {
+                at_mut!(self.nodes, iu).parent = ORPHAN;
                 self.orphans.push(i);
             } else if in_tree {
                 // An arc capacity changed: let i look for new paths.
                 self.activate(i);
             }
-            if !in_tree || self.nodes[iu].parent == NONE {
+            if !in_tree || at!(self.nodes, iu).parent == NONE {
                 // A free node next to a raised arc: wake its tree neighbours.
-                let mut arcs = self.topo.arcs(i);
-                while let Some(a) = arcs.next() {
+                let arcs = self.topo.arcs(i);
+                for a in arcs {
                     let j = self.topo.head(a);
-                    if self.nodes[j as usize].parent != NONE {
+                    if at!(self.nodes, j as usize).parent != NONE {
                         self.activate(j);
                     }
                 }
@@ -395,17 +417,17 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
     }
 
     fn orphan_children(&mut self, i: u32, tree_sink: bool) {
-        let mut arcs = self.topo.arcs(i);
-        while let Some(a) = arcs.next() {
+        let arcs = self.topo.arcs(i);
+        for a in arcs {
             let j = self.topo.head(a) as usize;
-            let pj = self.nodes[j].parent;
-            if self.nodes[j].sink() == tree_sink
+            let pj = at!(self.nodes, j).parent;
+            if at!(self.nodes, j).sink() == tree_sink
                 && pj != NONE
                 && pj != TERMINAL
                 && pj != ORPHAN
                 && self.topo.head(pj) == i
             {
-                self.nodes[j].parent = ORPHAN;
+                at_mut!(self.nodes, j).parent = ORPHAN;
                 self.orphans.push(j as u32);
             }
         }
@@ -422,7 +444,7 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         self.solved = true;
         let mut current = NONE;
         loop {
-            let i = if current != NONE && self.nodes[current as usize].parent != NONE {
+            let i = if current != NONE && at!(self.nodes, current as usize).parent != NONE {
                 current
             } else {
                 match self.pop_active() {
@@ -449,46 +471,46 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
     #[inline(always)]
     fn grow(&mut self, i: u32) -> u32 {
         let iu = i as usize;
-        let (ti, di) = (self.nodes[iu].ts, self.nodes[iu].dist());
-        let mut arcs = self.topo.arcs(i);
-        if !self.nodes[iu].sink() {
-            while let Some(a) = arcs.next() {
-                if self.cap[a as usize].is_pos() {
+        let (ti, di) = (at!(self.nodes, iu).ts, at!(self.nodes, iu).dist());
+        let arcs = self.topo.arcs(i);
+        if !at!(self.nodes, iu).sink() {
+            for a in arcs {
+                if at!(self.cap, a as usize).is_pos() {
                     let j = self.topo.head(a);
                     let ju = j as usize;
-                    if self.nodes[ju].parent == NONE {
-                        self.nodes[ju].set_sink(false);
-                        self.nodes[ju].parent = self.topo.sister(a);
-                        self.nodes[ju].ts = ti;
-                        self.nodes[ju].set_dist(di + 1);
+                    if at!(self.nodes, ju).parent == NONE {
+                        at_mut!(self.nodes, ju).set_sink(false);
+                        at_mut!(self.nodes, ju).parent = self.topo.sister(a);
+                        at_mut!(self.nodes, ju).ts = ti;
+                        at_mut!(self.nodes, ju).set_dist(di + 1);
                         self.activate(j);
-                    } else if self.nodes[ju].sink() {
+                    } else if at!(self.nodes, ju).sink() {
                         return a;
-                    } else if self.nodes[ju].ts <= ti && self.nodes[ju].dist() > di {
-                        self.nodes[ju].parent = self.topo.sister(a);
-                        self.nodes[ju].ts = ti;
-                        self.nodes[ju].set_dist(di + 1);
+                    } else if at!(self.nodes, ju).ts <= ti && at!(self.nodes, ju).dist() > di {
+                        at_mut!(self.nodes, ju).parent = self.topo.sister(a);
+                        at_mut!(self.nodes, ju).ts = ti;
+                        at_mut!(self.nodes, ju).set_dist(di + 1);
                     }
                 }
             }
         } else {
-            while let Some(a) = arcs.next() {
+            for a in arcs {
                 let s = self.topo.sister(a);
-                if self.cap[s as usize].is_pos() {
+                if at!(self.cap, s as usize).is_pos() {
                     let j = self.topo.head(a);
                     let ju = j as usize;
-                    if self.nodes[ju].parent == NONE {
-                        self.nodes[ju].set_sink(true);
-                        self.nodes[ju].parent = s;
-                        self.nodes[ju].ts = ti;
-                        self.nodes[ju].set_dist(di + 1);
+                    if at!(self.nodes, ju).parent == NONE {
+                        at_mut!(self.nodes, ju).set_sink(true);
+                        at_mut!(self.nodes, ju).parent = s;
+                        at_mut!(self.nodes, ju).ts = ti;
+                        at_mut!(self.nodes, ju).set_dist(di + 1);
                         self.activate(j);
-                    } else if !self.nodes[ju].sink() {
+                    } else if !at!(self.nodes, ju).sink() {
                         return s;
-                    } else if self.nodes[ju].ts <= ti && self.nodes[ju].dist() > di {
-                        self.nodes[ju].parent = s;
-                        self.nodes[ju].ts = ti;
-                        self.nodes[ju].set_dist(di + 1);
+                    } else if at!(self.nodes, ju).ts <= ti && at!(self.nodes, ju).dist() > di {
+                        at_mut!(self.nodes, ju).parent = s;
+                        at_mut!(self.nodes, ju).ts = ti;
+                        at_mut!(self.nodes, ju).set_dist(di + 1);
                     }
                 }
             }
@@ -498,70 +520,70 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
 
     /// Pushes the bottleneck flow along source-root → `mid` → sink-root.
     fn augment(&mut self, mid: u32) {
-        let mut b = self.cap[mid as usize];
+        let mut b = at!(self.cap, mid as usize);
         // Source side: arcs point from child to parent; flow runs along their sisters.
         let mut i = self.topo.head(self.topo.sister(mid));
         loop {
-            let pa = self.nodes[i as usize].parent;
+            let pa = at!(self.nodes, i as usize).parent;
             if pa == TERMINAL {
                 break;
             }
-            b = b.min_of(self.cap[self.topo.sister(pa) as usize]);
+            b = b.min_of(at!(self.cap, self.topo.sister(pa) as usize));
             i = self.topo.head(pa);
         }
-        b = b.min_of(self.tr[i as usize]);
+        b = b.min_of(at!(self.tr, i as usize));
         let mut i = self.topo.head(mid);
         loop {
-            let pa = self.nodes[i as usize].parent;
+            let pa = at!(self.nodes, i as usize).parent;
             if pa == TERMINAL {
                 break;
             }
-            b = b.min_of(self.cap[pa as usize]);
+            b = b.min_of(at!(self.cap, pa as usize));
             i = self.topo.head(pa);
         }
-        b = b.min_of(-self.tr[i as usize]);
+        b = b.min_of(-at!(self.tr, i as usize));
 
         let ms = self.topo.sister(mid);
-        self.cap[ms as usize] += b;
-        self.cap[mid as usize] -= b;
+        at_mut!(self.cap, ms as usize) += b;
+        at_mut!(self.cap, mid as usize) -= b;
         let mut i = self.topo.head(ms);
         loop {
-            let pa = self.nodes[i as usize].parent;
+            let pa = at!(self.nodes, i as usize).parent;
             if pa == TERMINAL {
                 break;
             }
             let up = self.topo.sister(pa);
-            self.cap[pa as usize] += b;
-            self.cap[up as usize] -= b;
-            if !self.cap[up as usize].is_pos() {
-                self.nodes[i as usize].parent = ORPHAN;
+            at_mut!(self.cap, pa as usize) += b;
+            at_mut!(self.cap, up as usize) -= b;
+            if !at!(self.cap, up as usize).is_pos() {
+                at_mut!(self.nodes, i as usize).parent = ORPHAN;
                 self.orphans.push(i);
             }
             i = self.topo.head(pa);
         }
-        self.tr[i as usize] -= b;
-        if !self.tr[i as usize].is_pos() {
-            self.nodes[i as usize].parent = ORPHAN;
+        at_mut!(self.tr, i as usize) -= b;
+        if !at!(self.tr, i as usize).is_pos() {
+            at_mut!(self.nodes, i as usize).parent = ORPHAN;
             self.orphans.push(i);
         }
         let mut i = self.topo.head(mid);
         loop {
-            let pa = self.nodes[i as usize].parent;
+            let pa = at!(self.nodes, i as usize).parent;
             if pa == TERMINAL {
                 break;
             }
             let down = self.topo.sister(pa);
-            self.cap[down as usize] += b;
-            self.cap[pa as usize] -= b;
-            if !self.cap[pa as usize].is_pos() {
-                self.nodes[i as usize].parent = ORPHAN;
+            at_mut!(self.cap, down as usize) += b;
+            at_mut!(self.cap, pa as usize) -= b;
+            if !at!(self.cap, pa as usize).is_pos() {
+                at_mut!(self.nodes, i as usize).parent = ORPHAN;
                 self.orphans.push(i);
             }
             i = self.topo.head(pa);
         }
-        self.tr[i as usize] += b;
-        if !(-self.tr[i as usize]).is_pos() {
-            self.nodes[i as usize].parent = ORPHAN;
+        at_mut!(self.tr, i as usize) += b;
+        if !(-at!(self.tr, i as usize)).is_pos() {
+            at_mut!(self.nodes, i as usize).parent = ORPHAN;
             self.orphans.push(i);
         }
         self.flow += b.widen();
@@ -575,15 +597,15 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         let mut k = j;
         loop {
             let ku = k as usize;
-            if self.nodes[ku].ts == self.time {
-                d += self.nodes[ku].dist();
+            if at!(self.nodes, ku).ts == self.time {
+                d += at!(self.nodes, ku).dist();
                 break;
             }
-            let pa = self.nodes[ku].parent;
+            let pa = at!(self.nodes, ku).parent;
             d += 1;
             if pa == TERMINAL {
-                self.nodes[ku].ts = self.time;
-                self.nodes[ku].set_dist(1);
+                at_mut!(self.nodes, ku).ts = self.time;
+                at_mut!(self.nodes, ku).set_dist(1);
                 break;
             }
             if pa == ORPHAN {
@@ -593,11 +615,11 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         }
         let mut k = j;
         let mut dd = d;
-        while self.nodes[k as usize].ts != self.time {
-            self.nodes[k as usize].ts = self.time;
-            self.nodes[k as usize].set_dist(dd);
+        while at!(self.nodes, k as usize).ts != self.time {
+            at_mut!(self.nodes, k as usize).ts = self.time;
+            at_mut!(self.nodes, k as usize).set_dist(dd);
             dd -= 1;
-            k = self.topo.head(self.nodes[k as usize].parent);
+            k = self.topo.head(at!(self.nodes, k as usize).parent);
         }
         d
     }
@@ -608,23 +630,23 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
             let i = self.orphans[idx];
             idx += 1;
             let iu = i as usize;
-            if self.nodes[iu].parent != ORPHAN {
+            if at!(self.nodes, iu).parent != ORPHAN {
                 continue;
             }
-            let is_sink = self.nodes[iu].sink();
+            let is_sink = at!(self.nodes, iu).sink();
             let mut best = NONE;
             let mut dmin = INF_DIST;
-            let mut arcs = self.topo.arcs(i);
-            while let Some(a) = arcs.next() {
+            let arcs = self.topo.arcs(i);
+            for a in arcs {
                 let residual = if is_sink {
-                    self.cap[a as usize]
+                    at!(self.cap, a as usize)
                 } else {
-                    self.cap[self.topo.sister(a) as usize]
+                    at!(self.cap, self.topo.sister(a) as usize)
                 };
                 if residual.is_pos() {
                     let j = self.topo.head(a);
                     let ju = j as usize;
-                    if self.nodes[ju].sink() == is_sink && self.nodes[ju].parent != NONE {
+                    if at!(self.nodes, ju).sink() == is_sink && at!(self.nodes, ju).parent != NONE {
                         let d = self.origin_distance(j);
                         if d < dmin {
                             best = a;
@@ -634,33 +656,33 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
                 }
             }
             if best != NONE {
-                self.nodes[iu].parent = best;
-                self.nodes[iu].ts = self.time;
-                self.nodes[iu].set_dist(dmin + 1);
+                at_mut!(self.nodes, iu).parent = best;
+                at_mut!(self.nodes, iu).ts = self.time;
+                at_mut!(self.nodes, iu).set_dist(dmin + 1);
             } else {
-                self.nodes[iu].parent = NONE;
-                let mut arcs = self.topo.arcs(i);
-                while let Some(a) = arcs.next() {
+                at_mut!(self.nodes, iu).parent = NONE;
+                let arcs = self.topo.arcs(i);
+                for a in arcs {
                     let j = self.topo.head(a);
                     let ju = j as usize;
-                    let pj = self.nodes[ju].parent;
+                    let pj = at!(self.nodes, ju).parent;
                     if pj != NONE {
                         // Any tree neighbour that could grow into i must look again (after
                         // tree reuse the other tree may border i through an open arc).
-                        let residual = if self.nodes[ju].sink() {
-                            self.cap[a as usize]
+                        let residual = if at!(self.nodes, ju).sink() {
+                            at!(self.cap, a as usize)
                         } else {
-                            self.cap[self.topo.sister(a) as usize]
+                            at!(self.cap, self.topo.sister(a) as usize)
                         };
                         if residual.is_pos() {
                             self.activate(j);
                         }
-                        if self.nodes[ju].sink() == is_sink
+                        if at!(self.nodes, ju).sink() == is_sink
                             && pj != TERMINAL
                             && pj != ORPHAN
                             && self.topo.head(pj) == i
                         {
-                            self.nodes[ju].parent = ORPHAN;
+                            at_mut!(self.nodes, ju).parent = ORPHAN;
                             self.orphans.push(j);
                         }
                     }
