@@ -179,7 +179,10 @@ pub fn match_by_overlap<'a>(
         .map(|m| {
             // Largest overlap; ties to the smaller id (BTreeMap order) for determinism.
             m.iter()
-                .fold((0u16, 0u64), |best, (&id, &n)| if n > best.1 { (id, n) } else { best })
+                .fold(
+                    (0u16, 0u64),
+                    |best, (&id, &n)| if n > best.1 { (id, n) } else { best },
+                )
                 .0
         })
         .collect()
@@ -218,13 +221,16 @@ pub fn evaluate(
     let median_depth = all_depths.get(all_depths.len() / 2).copied().unwrap_or(1.0) as f64;
     let matches = match_by_overlap(
         hypotheses.len(),
-        views.iter().zip(&gts).map(|(v, (_, d, ids))| (v, d, ids.as_slice())),
+        views
+            .iter()
+            .zip(&gts)
+            .map(|(v, (_, d, ids))| (v, d, ids.as_slice())),
     );
     let mut total = Scores::default();
     for (v, (name, depth, ids)) in views.iter().zip(gts) {
         let mut s = Scores::default();
-        for p in 0..depth.data.len() {
-            let gz = depth.data[p] as f64;
+        for (p, &gz) in depth.data.iter().enumerate() {
+            let gz = gz as f64;
             if gz <= 0.0 {
                 continue;
             }

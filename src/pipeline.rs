@@ -232,7 +232,9 @@ impl Config {
                 "solver.cost_scale must be positive".into(),
             ));
         }
-        if self.fusion.stride == 0 || !(self.fusion.depth_tolerance > 0.0) {
+        let tolerance_ok =
+            self.fusion.depth_tolerance.is_finite() && self.fusion.depth_tolerance > 0.0;
+        if self.fusion.stride == 0 || !tolerance_ok {
             return Err(PipelineError::Config(
                 "fusion.stride must be ≥ 1 and fusion.depth_tolerance > 0".into(),
             ));

@@ -20,11 +20,24 @@ fn planemap() -> Command {
 /// Renders the demo scene at 96×72 into `dir` (once per test).
 fn tiny_demo(dir: &Path) -> Scene {
     let out = planemap()
-        .args(["-q", "synth", "scenes/demo.toml", "--width", "96", "--height", "72", "-o"])
+        .args([
+            "-q",
+            "synth",
+            "scenes/demo.toml",
+            "--width",
+            "96",
+            "--height",
+            "72",
+            "-o",
+        ])
         .arg(dir)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     read_model(&dir.join("sparse"))
         .unwrap()
         .to_scene(Some(&dir.join("images")))
@@ -49,7 +62,13 @@ fn demo_scene_is_reconstructed_within_tolerance() {
     assert!(prepared.hypotheses.len() >= 3);
     // α-expansion never raises the energy of its start.
     for v in &summary.views {
-        assert!(v.energy <= v.initial_energy + 1e-6, "{}: {} > {}", v.name, v.energy, v.initial_energy);
+        assert!(
+            v.energy <= v.initial_energy + 1e-6,
+            "{}: {} > {}",
+            v.name,
+            v.energy,
+            v.initial_energy
+        );
     }
     let report = evaluate(
         &ws.join("gt"),
@@ -80,13 +99,19 @@ fn demo_scene_is_reconstructed_within_tolerance() {
             .unwrap();
         for px in n.data.chunks(3) {
             let len = (px[0] * px[0] + px[1] * px[1] + px[2] * px[2]).sqrt();
-            assert!(len == 0.0 || (len - 1.0).abs() < 1e-4, "normal length {len}");
+            assert!(
+                len == 0.0 || (len - 1.0).abs() < 1e-4,
+                "normal length {len}"
+            );
         }
         assert!(v.depth.iter().all(|z| z.is_finite() && *z >= 0.0));
     }
     let fused = read_ply_points_path(&out.join("fused.ply")).unwrap();
     assert!(fused.positions.len() > 1000);
-    assert!(fused.positions.iter().all(|p| p.iter().all(|c| c.is_finite())));
+    assert!(fused
+        .positions
+        .iter()
+        .all(|p| p.iter().all(|c| c.is_finite())));
     let planes: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("planes.json")).unwrap()).unwrap();
     assert_eq!(planes.as_array().unwrap().len(), prepared.hypotheses.len());
@@ -171,7 +196,10 @@ fn resume_skips_finished_views_and_keeps_their_outputs() {
     let resumed: Vec<bool> = summary.views.iter().map(|v| v.resumed).collect();
     assert_eq!(&resumed[..2], &[true, true]);
     assert!(resumed[2..].iter().all(|r| !r));
-    assert_eq!(std::fs::read(out.join("planemaps/view_0000.png")).unwrap(), before);
+    assert_eq!(
+        std::fs::read(out.join("planemaps/view_0000.png")).unwrap(),
+        before
+    );
 }
 
 #[test]
@@ -202,9 +230,15 @@ fn degenerate_inputs_give_errors_or_finite_results() {
     // No points at all: a clear error, not a panic.
     let mut empty = scene.clone();
     empty.cloud = Default::default();
-    let err = pipeline::run(&empty, &cfg, &tmp.path().join("e"), &RunOptions::default(), &hidden)
-        .unwrap_err()
-        .to_string();
+    let err = pipeline::run(
+        &empty,
+        &cfg,
+        &tmp.path().join("e"),
+        &RunOptions::default(),
+        &hidden,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(err.contains("no sparse points"), "{err}");
 
     // A single view: still labels it (conflict case 3 has no other camera).
@@ -213,7 +247,13 @@ fn degenerate_inputs_give_errors_or_finite_results() {
     for t in &mut single.cloud.tracks {
         t.retain(|&v| v == 0);
     }
-    match pipeline::run(&single, &cfg, &tmp.path().join("s"), &RunOptions::default(), &hidden) {
+    match pipeline::run(
+        &single,
+        &cfg,
+        &tmp.path().join("s"),
+        &RunOptions::default(),
+        &hidden,
+    ) {
         Ok((_, views, _)) => assert!(views[0].depth.iter().all(|z| z.is_finite())),
         Err(e) => assert!(!e.to_string().is_empty()),
     }
@@ -223,7 +263,13 @@ fn degenerate_inputs_give_errors_or_finite_results() {
     for p in &mut flat.cloud.positions {
         p.z = 0.0;
     }
-    match pipeline::run(&flat, &cfg, &tmp.path().join("f"), &RunOptions::default(), &hidden) {
+    match pipeline::run(
+        &flat,
+        &cfg,
+        &tmp.path().join("f"),
+        &RunOptions::default(),
+        &hidden,
+    ) {
         Ok((_, views, _)) => {
             for v in &views {
                 assert!(v.depth.iter().all(|z| z.is_finite()));
@@ -243,17 +289,30 @@ fn degenerate_inputs_give_errors_or_finite_results() {
     for t in &mut away.cloud.tracks {
         t.retain(|&v| v != 0);
     }
-    if let Ok((_, views, _)) =
-        pipeline::run(&away, &cfg, &tmp.path().join("a"), &RunOptions::default(), &hidden)
-    {
+    if let Ok((_, views, _)) = pipeline::run(
+        &away,
+        &cfg,
+        &tmp.path().join("a"),
+        &RunOptions::default(),
+        &hidden,
+    ) {
         assert!(views[0].depth.iter().all(|z| z.is_finite() && *z >= 0.0));
     }
 
     // An image that disagrees with its camera: the error names the file.
     let img = ws.join("images").join(&scene.views[0].name);
     image::RgbImage::new(10, 10).save(&img).unwrap();
-    let err = pipeline::run(&scene, &cfg, &tmp.path().join("b"), &RunOptions::default(), &hidden)
-        .unwrap_err()
-        .to_string();
-    assert!(err.contains(&scene.views[0].name) && err.contains("10x10"), "{err}");
+    let err = pipeline::run(
+        &scene,
+        &cfg,
+        &tmp.path().join("b"),
+        &RunOptions::default(),
+        &hidden,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains(&scene.views[0].name) && err.contains("10x10"),
+        "{err}"
+    );
 }
