@@ -7,6 +7,7 @@
 #![deny(missing_docs)]
 
 pub mod axes;
+pub mod baseline;
 pub mod eval;
 pub mod geometry;
 pub mod hypotheses;

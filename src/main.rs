@@ -48,6 +48,29 @@ enum Command {
     Run(RunArgs),
     /// Render the embedded demo scene into ./planemap-demo/ and reconstruct it.
     Demo(DemoArgs),
+    /// Baseline: plane-sweep stereo (winner takes all) per view, scored against ground truth
+    /// on textured and on plain pixels.
+    #[command(after_help = "Example:\n  planemap sweep --model ws/sparse -o ws/sweep")]
+    Sweep(SweepArgs),
+}
+
+#[derive(Args)]
+struct SweepArgs {
+    /// COLMAP sparse model directory.
+    #[arg(long)]
+    model: PathBuf,
+    /// Images directory (default: ../images beside the model).
+    #[arg(long)]
+    images: Option<PathBuf>,
+    /// Output directory (depth/NAME.pfm; NaN = no depth).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Only these views (comma-separated indices).
+    #[arg(long, value_delimiter = ',')]
+    views: Option<Vec<usize>>,
+    /// Ground truth directory (default: ../gt beside the model, if present).
+    #[arg(long)]
+    gt: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -126,6 +149,7 @@ fn main() -> ExitCode {
         Command::Info(a) => info(a),
         Command::Run(a) => run(a, &progress),
         Command::Demo(a) => demo(a, &progress),
+        Command::Sweep(a) => sweep(a, &progress),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -277,4 +301,71 @@ fn demo(a: DemoArgs, progress: &Progress) -> Result<()> {
         Some(&a.output.join("gt")),
         progress,
     )
+}
+
+fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
+    use planemap::baseline::{split_scores, sweep_view, texture_mask, SplitScores};
+    let model = planemap::io::colmap::read_model(&a.model)?;
+    let images = a.images.clone().or_else(|| {
+        a.model
+            .parent()
+            .map(|p| p.join("images"))
+            .filter(|p| p.is_dir())
+    });
+    let scene = model.to_scene(images.as_deref())?.undistorted();
+    let gt = a.gt.clone().or_else(|| sibling_gt(&a.model));
+    let cfg = planemap::baseline::SweepBaselineConfig::default();
+    let all: Vec<planemap::ImageF32> = scene
+        .views
+        .iter()
+        .map(|v| v.load_undistorted_image())
+        .collect::<Result<_, _>>()?;
+    let indices = a
+        .views
+        .clone()
+        .unwrap_or_else(|| (0..scene.views.len()).collect());
+    std::fs::create_dir_all(a.output.join("depth"))?;
+    let bar = progress.bar(indices.len() as u64, "plane sweep");
+    let mut total = SplitScores::default();
+    for &i in &indices {
+        let view = scene
+            .views
+            .get(i)
+            .with_context(|| format!("view index {i} out of range"))?;
+        let result = sweep_view(&scene, &all, i, &cfg)?;
+        let stem = planemap::pipeline::output_stem(&view.name);
+        let depth = planemap::ImageF32 {
+            width: view.camera.width,
+            height: view.camera.height,
+            channels: 1,
+            data: result.depth.clone(),
+        };
+        planemap::io::pfm::write_pfm_path(
+            &a.output.join("depth").join(format!("{stem}.pfm")),
+            &depth,
+        )?;
+        if let Some(gt) = &gt {
+            let gt_depth =
+                planemap::io::pfm::read_pfm_path(&gt.join("depth").join(format!("{stem}.pfm")))?;
+            let mask = texture_mask(&all[i], 3, 0.02);
+            total.add(&split_scores(&result.depth, &gt_depth.data, &mask, 0.01));
+        }
+        bar.inc(1);
+    }
+    bar.finish();
+    println!(
+        "plane sweep: {} views written to {}",
+        indices.len(),
+        a.output.display()
+    );
+    if gt.is_some() {
+        println!(
+            "depth within 1%: textured pixels {:.1}% (of {}), plain pixels {:.1}% (of {})",
+            100.0 * total.textured_accuracy(),
+            total.textured,
+            100.0 * total.plain_accuracy(),
+            total.plain
+        );
+    }
+    Ok(())
 }
