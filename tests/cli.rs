@@ -1,37 +1,12 @@
 //! End-to-end tests of the `planemap` binary on tiny synthetic scenes.
 
-use std::path::Path;
-use std::process::Command;
 
 use planemap::io::colmap::read_model;
 use planemap::io::labelpng::read_label_png;
 use planemap::io::pfm::read_pfm_path;
 
-fn planemap() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_planemap"))
-}
-
-fn synth_demo(dir: &Path) {
-    let out = planemap()
-        .args([
-            "-q",
-            "synth",
-            "scenes/demo.toml",
-            "--width",
-            "96",
-            "--height",
-            "72",
-            "-o",
-        ])
-        .arg(dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "synth failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
+mod common;
+use common::{planemap, synth_tiny_demo as synth_demo};
 
 #[test]
 fn synth_writes_a_consistent_workspace() {

@@ -2,7 +2,6 @@
 //! not rise, determinism across thread counts, outputs a reader can load, and bad inputs.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use nalgebra::Vector3;
 use planemap::eval::{evaluate, EvalConfig};
@@ -13,31 +12,12 @@ use planemap::pipeline::{self, Config, RunOptions};
 use planemap::progress::Progress;
 use planemap::scene::Scene;
 
-fn planemap() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_planemap"))
-}
+mod common;
+use common::{planemap, synth_tiny_demo};
 
-/// Renders the demo scene at 96×72 into `dir` (once per test).
+/// Renders the demo scene at 96×72 into `dir` and loads it.
 fn tiny_demo(dir: &Path) -> Scene {
-    let out = planemap()
-        .args([
-            "-q",
-            "synth",
-            "scenes/demo.toml",
-            "--width",
-            "96",
-            "--height",
-            "72",
-            "-o",
-        ])
-        .arg(dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    synth_tiny_demo(dir);
     read_model(&dir.join("sparse"))
         .unwrap()
         .to_scene(Some(&dir.join("images")))
