@@ -215,6 +215,8 @@ def main():
                 extra = f" flow={med(rs, 'flow'):.0f}"
                 if solver == "ours":
                     extra += f" (build {med(rs, 'build_seconds'):.3f}s + maxflow {med(rs, 'maxflow_seconds'):.3f}s)"
+                else:
+                    extra += f"; maxflow-only ratio {med(runs['ours'], 'maxflow_seconds') / t:.3f}"
             print(f"{name:22} {solver:12} {e:12.0f} {de:>11} {t:9.3f} {ratio:>10}{extra}")
     os.makedirs(os.path.join(HERE, "results"), exist_ok=True)
     with open(os.path.join(HERE, "results", "peers.json"), "w") as f:
