@@ -519,14 +519,6 @@ pub fn run(
         }
         None => (0..scene.views.len()).collect(),
     };
-    for d in [
-        "planemaps",
-        "depth",
-        "stereo/depth_maps",
-        "stereo/normal_maps",
-    ] {
-        std::fs::create_dir_all(out.join(d)).map_err(|e| write_err(&out.join(d), e))?;
-    }
     let t = Instant::now();
     let bar = progress.bar(indices.len() as u64, "planemaps");
     let results: Vec<Result<(ViewPlanemap, bool), PipelineError>> = indices
@@ -602,7 +594,15 @@ pub fn run(
     Ok((prepared, views, summary))
 }
 
-/// Writes one view's planemap, depth and normal maps.
+/// The per-view output folders under a run's output directory.
+const OUTPUT_DIRS: [&str; 4] = [
+    "planemaps",
+    "depth",
+    "stereo/depth_maps",
+    "stereo/normal_maps",
+];
+
+/// Writes one view's planemap, depth and normal maps (creating the folders).
 pub fn write_view_outputs(
     out: &Path,
     scene: &Scene,
@@ -611,6 +611,10 @@ pub fn write_view_outputs(
     let view = &scene.views[result.view_index];
     let stem = output_stem(&view.name);
     let (w, h) = (result.width, result.height);
+    for d in OUTPUT_DIRS {
+        let dir = out.join(d);
+        std::fs::create_dir_all(&dir).map_err(|e| write_err(&dir, e))?;
+    }
     let ids: Vec<u16> = result
         .labels
         .iter()

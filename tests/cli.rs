@@ -1,6 +1,5 @@
 //! End-to-end tests of the `planemap` binary on tiny synthetic scenes.
 
-
 use planemap::io::colmap::read_model;
 use planemap::io::labelpng::read_label_png;
 use planemap::io::pfm::read_pfm_path;
