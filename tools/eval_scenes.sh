@@ -37,12 +37,26 @@ for s in $SCENES; do
   rm -rf "$out"
   start=$(date +%s.%N)
   if [ "$MODE" = pmvs ]; then
-    res=$("$BIN" -q run --pmvs "$ws/pmvs" --gt "$ws/gt" -o "$out" "$@" 2>&1 || true)
+    # PMVS names its views 00000000, 00000001, … in image order; gt/ uses the image names.
+    # Map them with a directory of links (the i-th gt file in name order is view i).
+    gtp="$ws/gt-pmvs"
+    if [ ! -d "$gtp" ]; then
+      mkdir -p "$gtp/depth" "$gtp/planes"
+      cp "$ws/gt/planes.json" "$gtp/"
+      i=0
+      for f in $(ls "$ws/gt/depth" | sort); do
+        stem=$(printf "%08d" $i)
+        ln -s "$ws/gt/depth/$f" "$gtp/depth/$stem.pfm"
+        ln -s "$ws/gt/planes/${f%.pfm}.png" "$gtp/planes/$stem.png"
+        i=$((i + 1))
+      done
+    fi
+    res=$("$BIN" -q run --pmvs "$ws/pmvs" --gt "$gtp" -o "$out" "$@" 2>&1 || true)
   else
     res=$("$BIN" -q run --model "$ws/sparse" --images "$ws/images" -o "$out" "$@" 2>&1 || true)
   fi
   secs=$(echo "$(date +%s.%N) - $start" | bc)
-  line=$(echo "$res" | grep -E "depth within" | tail -1)
+  line=$(echo "$res" | grep -E "depth within" | tail -1 || true)
   [ -z "$line" ] && line="FAILED: $(echo "$res" | tail -2 | tr '\n' ' ')"
   printf "%-10s %-6s %6.1fs  %s\n" "$s" "$MODE" "$secs" "$line"
 done
