@@ -83,6 +83,13 @@ pub struct AxesConfig {
     pub min_confidence: f64,
     /// Replace d1..d3 by the nearest orthonormal frame (polar decomposition). Off in the paper.
     pub snap_orthonormal: bool,
+    /// How to snap (when `snap_orthonormal`): 0 = nearest orthonormal frame (polar
+    /// decomposition, spreads every axis' error over all three). > 0 = of the six frames
+    /// that keep one axis exactly, make a second orthogonal to it and take the third as
+    /// their cross product, the one with most normals within this many degrees of an axis:
+    /// a direction smeared by small adjacent faces (stair treads and risers) is then fixed
+    /// by the two crisp ones instead of tilting them.
+    pub snap_sharp_angle_deg: f64,
     /// Extra directions beyond the Manhattan three (roof slopes, oblique walls); 0 = paper.
     pub max_extra_directions: usize,
     /// Minimum support of an extra direction as a fraction of the usable normals.
@@ -106,6 +113,7 @@ impl Default for AxesConfig {
             min_support: 10,
             min_confidence: 1e-3,
             snap_orthonormal: false,
+            snap_sharp_angle_deg: 2.0,
             max_extra_directions: 0,
             extra_min_support_fraction: 0.05,
             extra_min_separation_deg: 20.0,
@@ -120,6 +128,12 @@ impl AxesConfig {
         let bad = |m: String| Err(AxesError::Config(m));
         if self.num_bins < 10 {
             return bad(format!("num_bins = {} must be ≥ 10", self.num_bins));
+        }
+        if !(self.snap_sharp_angle_deg >= 0.0 && self.snap_sharp_angle_deg < 45.0) {
+            return bad(format!(
+                "snap_sharp_angle_deg = {} must be in [0, 45)",
+                self.snap_sharp_angle_deg
+            ));
         }
         if !(self.refine_angle_deg > 0.0 && self.refine_angle_deg < 45.0) {
             return bad(format!(
@@ -339,7 +353,34 @@ pub fn dominant_axes(
 
     let mut directions: Vec<Vector3<f64>> = Vec::new();
     let mut support: Vec<usize> = Vec::new();
-    for _ in 0..3 {
+    // Prefer the mutually orthogonal triple with the largest total support over the greedy
+    // pick: a smeared fullest bin (e.g. the mean of stair treads and risers) can be the most
+    // supported single direction yet leave no room for a third axis within the window.
+    let strong: Vec<&(Vector3<f64>, usize)> =
+        candidates.iter().filter(|c| c.1 >= min_support).collect();
+    let mut best: Option<(usize, [usize; 3])> = None;
+    for a in 0..strong.len() {
+        for b in a + 1..strong.len() {
+            if !ortho_ok(&strong[a].0, &strong[b].0) {
+                continue;
+            }
+            for c in b + 1..strong.len() {
+                if ortho_ok(&strong[a].0, &strong[c].0) && ortho_ok(&strong[b].0, &strong[c].0) {
+                    let total = strong[a].1 + strong[b].1 + strong[c].1;
+                    if best.is_none_or(|(t, _)| total > t) {
+                        best = Some((total, [a, b, c]));
+                    }
+                }
+            }
+        }
+    }
+    if let Some((_, idx)) = best {
+        for i in idx {
+            directions.push(strong[i].0);
+            support.push(strong[i].1);
+        }
+    }
+    for _ in directions.len()..3 {
         let pick = candidates
             .iter()
             .find(|(d, s)| *s >= min_support && directions.iter().all(|e| ortho_ok(d, e)));
@@ -362,7 +403,51 @@ pub fn dominant_axes(
         warnings.push(AxesWarning::FewerThanThree(num_manhattan));
     }
 
-    if config.snap_orthonormal {
+    if config.snap_orthonormal && config.snap_sharp_angle_deg > 0.0 && num_manhattan == 3 {
+        let cos_sharp = config.snap_sharp_angle_deg.to_radians().cos();
+        // Each ordering keeps one axis exactly, makes the next orthogonal to it and takes the
+        // third as their cross product; the frame that puts most normals within the sharp
+        // cone of one of its axes wins (ties: the first ordering).
+        let frame = |o: [usize; 3]| {
+            let a = directions[o[0]].normalize();
+            let b = (directions[o[1]] - a * a.dot(&directions[o[1]])).normalize();
+            let mut c = a.cross(&b);
+            if c.dot(&directions[o[2]]) < 0.0 {
+                c = -c;
+            }
+            let mut f = [Vector3::zeros(); 3];
+            f[o[0]] = a;
+            f[o[1]] = b;
+            f[o[2]] = c;
+            f
+        };
+        let score = |f: &[Vector3<f64>; 3]| {
+            normals
+                .iter()
+                .filter(|n| f.iter().any(|d| n.dot(d).abs() >= cos_sharp))
+                .count()
+        };
+        let mut best: Option<(usize, [Vector3<f64>; 3])> = None;
+        for o in [
+            [0, 1, 2],
+            [1, 0, 2],
+            [0, 2, 1],
+            [2, 0, 1],
+            [1, 2, 0],
+            [2, 1, 0],
+        ] {
+            let f = frame(o);
+            let sc = score(&f);
+            if best.is_none_or(|(b, _)| sc > b) {
+                best = Some((sc, f));
+            }
+        }
+        if let Some((_, f)) = best {
+            for (d, s) in directions.iter_mut().zip(f) {
+                *d = canonical_sign(s);
+            }
+        }
+    } else if config.snap_orthonormal {
         if num_manhattan >= 2 {
             // Nearest matrix with orthonormal columns: U Vᵀ of the SVD (polar decomposition).
             let m = DMatrix::from_fn(3, num_manhattan, |r, c| directions[c][r]);
@@ -546,6 +631,60 @@ pub(crate) mod tests {
         // Symmetric polar snapping moves each axis by about half the defect.
         assert!(axial_angle_deg(&snapped.directions[0], &a) < 3.0);
         assert!(axial_angle_deg(&snapped.directions[1], &b) < 3.0);
+    }
+
+    #[test]
+    fn best_orthogonal_triple_beats_a_fuller_smeared_bin() {
+        // The fullest bin is 15° off z (stair slope): greedily taken as d1 it leaves no
+        // third axis within 80°–100°; the triple x, y, z has the larger total support.
+        let mut rng = ChaCha8Rng::seed_from_u64(12);
+        let tilt = Rotation3::from_axis_angle(&Vector3::x_axis(), 15f64.to_radians());
+        let mut normals: Vec<_> = (0..1200)
+            .map(|_| jitter(&mut rng, Vector3::x(), 1.0))
+            .collect();
+        normals.extend((0..700).map(|_| jitter(&mut rng, Vector3::y(), 1.0)));
+        normals.extend((0..600).map(|_| jitter(&mut rng, Vector3::z(), 1.0)));
+        normals.extend((0..2500).map(|_| jitter(&mut rng, tilt * Vector3::z(), 1.0)));
+        let axes = dominant_axes(&cloud_of(normals), &AxesConfig::default()).unwrap();
+        assert_eq!(axes.directions.len(), 3, "{:?}", axes.directions);
+        for t in [Vector3::x(), Vector3::y(), Vector3::z()] {
+            let e = best_match(&axes.directions, &t);
+            assert!(e < 1.0, "axis error {e}° for {t:?}: {:?}", axes.directions);
+        }
+    }
+
+    #[test]
+    fn smeared_axis_fixed_by_the_two_sharp_ones() {
+        // Stairs: x (walls) and y (risers) are crisp; z is smeared toward the stair slope
+        // (normals spread 6° around a mean 8° off z), and the smeared bin is the fullest.
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let tilt = Rotation3::from_axis_angle(&Vector3::x_axis(), 8f64.to_radians());
+        let mut normals: Vec<_> = (0..1200)
+            .map(|_| jitter(&mut rng, Vector3::x(), 1.0))
+            .collect();
+        normals.extend((0..700).map(|_| jitter(&mut rng, Vector3::y(), 1.0)));
+        normals.extend((0..2500).map(|_| jitter(&mut rng, tilt * Vector3::z(), 6.0)));
+        let cloud = cloud_of(normals);
+        let raw = dominant_axes(&cloud, &AxesConfig::default()).unwrap();
+        assert_eq!(raw.directions.len(), 3);
+        assert!(best_match(&raw.directions, &Vector3::z()) > 3.0);
+        let snap = AxesConfig {
+            snap_orthonormal: true,
+            ..Default::default()
+        };
+        let axes = dominant_axes(&cloud, &snap).unwrap();
+        for t in [Vector3::x(), Vector3::y(), Vector3::z()] {
+            let e = best_match(&axes.directions, &t);
+            assert!(e < 0.5, "axis error {e}° for {t:?}: {:?}", axes.directions);
+        }
+        // Polar snapping would split the 8° defect instead.
+        let polar = AxesConfig {
+            snap_orthonormal: true,
+            snap_sharp_angle_deg: 0.0,
+            ..Default::default()
+        };
+        let p = dominant_axes(&cloud, &polar).unwrap();
+        assert!(best_match(&p.directions, &Vector3::z()) > 1.0);
     }
 
     #[test]

@@ -73,7 +73,7 @@ impl Default for HypothesesConfig {
             bandwidth_r: 2.0,
             kernel: Kernel::Flat,
             min_support: 50,
-            min_support_fraction: 0.01,
+            min_support_fraction: 0.005,
             merge_angle_deg: 1.0,
             merge_offset_r: 1.0,
             min_confidence: 1e-3,
@@ -126,7 +126,7 @@ impl HypothesesConfig {
 }
 
 /// No plane is ever accepted with fewer points than this, whatever the relative rule says.
-pub const MIN_SUPPORT_FLOOR: usize = 10;
+pub const MIN_SUPPORT_FLOOR: usize = 6;
 
 /// What the stage reads: oriented points, the dominant axes and the sampling scale.
 #[derive(Debug, Clone, Copy)]

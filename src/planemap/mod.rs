@@ -121,8 +121,8 @@ impl Default for PlanemapConfig {
             edge_gradient_threshold: 0.05,
             edge_angle_tolerance_deg: 10.0,
             edge_non_max_suppression: true,
-            min_support: 10,
-            min_support_in_frustum: 40,
+            min_support: 6,
+            min_support_in_frustum: 20,
             max_labels: 0,
         }
     }
