@@ -16,7 +16,7 @@
 //! | [`ORIENT_OFFSET`] | 8 | unsigned gradient-orientation histogram (bin `k` covers `[k, k+1)·22.5°`, magnitude-weighted, sums to 1 or is all 0 on a flat window) |
 //! | [`GRADIENT_STATS_OFFSET`] | 2 | mean gradient magnitude (grey levels per pixel × 10), orientation coherence `(λ1−λ2)/(λ1+λ2)` of the structure tensor |
 //! | [`LBP_OFFSET`] | 10 | rotation-invariant uniform LBP (8 neighbours, radius 1; bin = number of brighter neighbours for uniform codes, bin 9 for non-uniform) |
-//! | [`GEOMETRY_OFFSET`] | 4 | sparse points near the cell: has-enough-points flag, plane-fit residual (rms distance / mean depth × 100), surface variation `λmin/(λ0+λ1+λ2)` × 10, normal spread `1 − |mean normal|` |
+//! | [`GEOMETRY_OFFSET`] | 4 | sparse points near the cell: has-enough-points flag, plane-fit residual `ln(1 + 10·r)` with `r` = rms distance / mean depth in %, surface variation `λmin/(λ0+λ1+λ2)` × 10, normal spread `1 − |mean normal|` |
 //!
 //! The geometric cue needs no labels: the sparse points whose track contains the view and
 //! whose projection lies within `geo_radius_px` of the cell centre are fit by a plane (PCA);
@@ -448,7 +448,10 @@ fn geometry_features(points: &ViewPoints, cx: f32, cy: f32, spec: &FeatureSpec, 
     out[0] = 1.0;
     // Clamp: a fit across a depth jump can be arbitrarily bad; beyond this it is all alike.
     const MAX_RESIDUAL: f64 = 10.0;
-    out[1] = (lmin.sqrt() / mean_depth * 100.0).min(MAX_RESIDUAL) as f32;
+    // Log scale: the residual spans noise level (≈ 0.1 %) to depth jumps (≈ 10 %), and a
+    // linear classifier separates the decades better than the raw percentage.
+    let residual = (lmin.sqrt() / mean_depth * 100.0).min(MAX_RESIDUAL);
+    out[1] = (10.0 * residual).ln_1p() as f32;
     out[2] = if total > 0.0 {
         (lmin / total * 10.0) as f32
     } else {
@@ -625,8 +628,9 @@ mod tests {
         geometry_features(&sphere, 59.0, 59.0, &spec, &mut gs);
         assert_eq!(gp[0], 1.0);
         assert_eq!(gs[0], 1.0);
-        assert!(gp[1] < 1e-4, "plane residual {}", gp[1]);
-        assert!(gs[1] > 1.0, "sphere residual {}", gs[1]);
+        assert!(gp[1] < 1e-3, "plane residual {}", gp[1]);
+        // ln(1 + 10·r) > ln(11): the sphere's rms residual exceeds 1 % of its depth.
+        assert!(gs[1] > 11f32.ln(), "sphere residual {}", gs[1]);
         // Too few points → all zero.
         let mut none = [9.0f32; GEOMETRY_FEATURES];
         none.fill(0.0);
