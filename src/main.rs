@@ -491,8 +491,8 @@ fn classify(c: ClassifyCommand, progress: &Progress) -> Result<()> {
         ClassifyCommand::Eval(a) => {
             let model = load_classifier(&a.model)?;
             println!(
-                "{:<28} {:>6} {:>9} {:>9} {:>9} {:>9} {:>9}",
-                "workspace", "unit", "nonplanar", "precision", "recall", "F1", "accuracy"
+                "{:<28} {:>6} {:>9} {:>9} {:>9} {:>9} {:>12}",
+                "workspace", "unit", "nonplanar", "precision", "recall", "F1", "planar kept"
             );
             let mut total = cls::dataset::WorkspaceScores::default();
             for ws in &a.workspaces {
@@ -559,14 +559,14 @@ fn classify(c: ClassifyCommand, progress: &Progress) -> Result<()> {
 fn print_scores(name: &str, s: &planemap::classify::dataset::WorkspaceScores) {
     for (unit, c) in [("cells", &s.cells), ("pixels", &s.pixels)] {
         println!(
-            "{:<28} {:>6} {:>9} {:>8.1}% {:>8.1}% {:>8.1}% {:>8.1}%",
+            "{:<28} {:>6} {:>9} {:>8.1}% {:>8.1}% {:>8.1}% {:>11.1}%",
             name,
             unit,
             c.true_positive + c.false_negative,
             100.0 * c.precision(),
             100.0 * c.recall(),
             100.0 * c.f1(),
-            100.0 * c.accuracy()
+            100.0 * c.specificity()
         );
     }
 }

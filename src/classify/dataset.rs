@@ -241,6 +241,15 @@ impl Confusion {
             self.true_positive as f64 / d as f64
         }
     }
+    /// TN / (TN + FP): fraction of planar truth kept planar; 0 when there is none.
+    pub fn specificity(&self) -> f64 {
+        let d = self.true_negative + self.false_positive;
+        if d == 0 {
+            0.0
+        } else {
+            self.true_negative as f64 / d as f64
+        }
+    }
     /// Harmonic mean of precision and recall.
     pub fn f1(&self) -> f64 {
         let (p, r) = (self.precision(), self.recall());
@@ -352,5 +361,6 @@ mod tests {
         assert!((c.recall() - 2.0 / 3.0).abs() < 1e-12);
         assert!((c.f1() - 2.0 / 3.0).abs() < 1e-12);
         assert!((c.accuracy() - 0.6).abs() < 1e-12);
+        assert!((c.specificity() - 0.5).abs() < 1e-12);
     }
 }

@@ -113,7 +113,7 @@ impl KnnClassifier {
             .nearest_n::<SquaredEuclidean<f32>>(want)
             .execute()
             .into_iter()
-            .map(|q| (q.distance, q.item as u32))
+            .map(|q| (q.distance, q.item))
             .collect();
         nbrs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         nbrs.truncate(k);
