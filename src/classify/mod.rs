@@ -16,7 +16,7 @@
 //! # Using the planarity map in the planemap energy
 //!
 //! [`PlanarityModel::planarity_map`] gives `P(planar)` per pixel (bilinear between cell
-//! centres). The intended integration (issue 7, done in `planemap::energy` by its owner): add
+//! centres); [`PlanarityMap::unary_costs`] turns it into the two cost terms below. The intended integration (issue 7, done in `planemap::energy` by its owner): add
 //! one label "non-planar" whose depth at pixel `p` is the plane-sweep depth and whose data
 //! cost is `D_np(p) = C_sweep(p) + β·(−ln(1 − P(p) + ε))`, while every plane label `ℓ` gets
 //! `D_ℓ(p) = C_ℓ(p) + β·(−ln(P(p) + ε))` (Gallup et al. §5: the classifier's output enters
@@ -287,7 +287,33 @@ pub struct PlanarityMap {
     pub planar: Vec<f32>,
 }
 
+/// The classifier's unary terms for the planemap energy, per pixel (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanarityCosts {
+    /// Added to every plane label's data cost: `β·(−ln(P + ε))`.
+    pub planar: Vec<f32>,
+    /// Added to the "non-planar" label's data cost: `β·(−ln(1 − P + ε))`.
+    pub nonplanar: Vec<f32>,
+}
+
 impl PlanarityMap {
+    /// The unary costs this map contributes to the planemap energy: `β` weighs the
+    /// classifier against photo-consistency, `ε` (e.g. 0.01) bounds the cost of a confident
+    /// mistake at `β·ln(1/ε)`. At `P = 0.5` both costs are equal, so the classifier is
+    /// neutral where it is unsure.
+    pub fn unary_costs(&self, beta: f32, epsilon: f32) -> Result<PlanarityCosts, ClassifyError> {
+        if !(beta.is_finite() && beta >= 0.0) || !(epsilon.is_finite() && epsilon > 0.0) {
+            return Err(ClassifyError::InvalidConfig(format!(
+                "unary costs: beta = {beta} (want ≥ 0), epsilon = {epsilon} (want > 0)"
+            )));
+        }
+        let cost = |q: f32| -beta * (q.clamp(0.0, 1.0) + epsilon).ln();
+        Ok(PlanarityCosts {
+            planar: self.planar.iter().map(|&p| cost(p)).collect(),
+            nonplanar: self.planar.iter().map(|&p| cost(1.0 - p)).collect(),
+        })
+    }
+
     /// Writes an 8-bit grey PNG (255 = surely planar, 0 = surely non-planar), atomically.
     pub fn write_png(&self, path: &Path) -> Result<(), ClassifyError> {
         let bytes: Vec<u8> = self
@@ -417,6 +443,23 @@ mod tests {
         for w in row.windows(2) {
             assert!(w[1] <= w[0]);
         }
+    }
+
+    #[test]
+    fn unary_costs_favour_the_likelier_label() {
+        let map = PlanarityMap {
+            width: 3,
+            height: 1,
+            planar: vec![1.0, 0.5, 0.0],
+        };
+        let c = map.unary_costs(2.0, 0.01).unwrap();
+        // Sure planar: plane labels cost −2·ln(1.01), the non-planar label −2·ln(0.01).
+        assert!((c.planar[0] - (-2.0 * 1.01f32.ln())).abs() < 1e-6);
+        assert!((c.nonplanar[0] - (-2.0 * 0.01f32.ln())).abs() < 1e-5);
+        assert_eq!(c.planar[1], c.nonplanar[1]);
+        assert_eq!(c.planar[2], c.nonplanar[0]);
+        assert!(map.unary_costs(-1.0, 0.01).is_err());
+        assert!(map.unary_costs(1.0, 0.0).is_err());
     }
 
     #[test]
