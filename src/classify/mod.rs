@@ -302,7 +302,8 @@ impl PlanarityMap {
     /// mistake at `β·ln(1/ε)`. At `P = 0.5` both costs are equal, so the classifier is
     /// neutral where it is unsure.
     pub fn unary_costs(&self, beta: f32, epsilon: f32) -> Result<PlanarityCosts, ClassifyError> {
-        if !(beta.is_finite() && beta >= 0.0) || !(epsilon.is_finite() && epsilon > 0.0) {
+        let valid = beta.is_finite() && beta >= 0.0 && epsilon.is_finite() && epsilon > 0.0;
+        if !valid {
             return Err(ClassifyError::InvalidConfig(format!(
                 "unary costs: beta = {beta} (want ≥ 0), epsilon = {epsilon} (want > 0)"
             )));
