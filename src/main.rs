@@ -52,6 +52,78 @@ enum Command {
     /// on textured and on plain pixels.
     #[command(after_help = "Example:\n  planemap sweep --model ws/sparse -o ws/sweep")]
     Sweep(SweepArgs),
+    /// Planar / non-planar classifier (Gallup et al. 2010): train on synthetic workspaces,
+    /// score on held-out ones, write per-view planarity maps.
+    #[command(subcommand)]
+    Classify(ClassifyCommand),
+}
+
+#[derive(Subcommand)]
+enum ClassifyCommand {
+    /// Train a model on synthetic workspaces' ground truth (gt/planes: 0 = non-planar).
+    #[command(after_help = "Example:
+  planemap classify train ws/train_park ws/train_street -o model.bin --method logistic")]
+    Train(ClassifyTrainArgs),
+    /// Precision / recall / F1 of \"non-planar\" on (held-out) synthetic workspaces.
+    #[command(after_help = "Example:\n  planemap classify eval model.bin ws/courtyard ws/room")]
+    Eval(ClassifyEvalArgs),
+    /// Write a planarity map PNG per view (255 = planar, 0 = non-planar).
+    #[command(after_help = "Example:
+  planemap classify map default --images ws/images -o ws/planarity")]
+    Map(ClassifyMapArgs),
+}
+
+#[derive(Args)]
+struct ClassifyTrainArgs {
+    /// Synthetic workspaces (from `planemap synth`) to train on.
+    #[arg(required = true)]
+    workspaces: Vec<PathBuf>,
+    /// Output model file.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Classifier: knn or logistic.
+    #[arg(long, default_value = "logistic")]
+    method: String,
+    /// kNN: neighbours that vote.
+    #[arg(long, default_value_t = 15)]
+    k: u32,
+    /// kNN: training vectors kept (even subsample).
+    #[arg(long, default_value_t = 4000)]
+    max_samples: u32,
+    /// Logistic: L2 weight.
+    #[arg(long, default_value_t = 1e-3)]
+    l2: f64,
+    /// Logistic: weight both classes equally.
+    #[arg(long)]
+    balance: bool,
+    /// Decision threshold on P(non-planar).
+    #[arg(long, default_value_t = 0.5)]
+    threshold: f32,
+}
+
+#[derive(Args)]
+struct ClassifyEvalArgs {
+    /// Model file, or `default` for the model built into planemap.
+    model: String,
+    /// Synthetic workspaces to score on.
+    #[arg(required = true)]
+    workspaces: Vec<PathBuf>,
+}
+
+#[derive(Args)]
+struct ClassifyMapArgs {
+    /// Model file, or `default` for the model built into planemap.
+    model: String,
+    /// Images directory.
+    #[arg(long)]
+    images: PathBuf,
+    /// COLMAP sparse model for the geometric cue (default: ../sparse beside the images, if
+    /// present; without one every image in the directory is mapped from appearance alone).
+    #[arg(long)]
+    sparse: Option<PathBuf>,
+    /// Output directory (NAME.png per view).
+    #[arg(short, long)]
+    output: PathBuf,
 }
 
 #[derive(Args)]
@@ -150,6 +222,7 @@ fn main() -> ExitCode {
         Command::Run(a) => run(a, &progress),
         Command::Demo(a) => demo(a, &progress),
         Command::Sweep(a) => sweep(a, &progress),
+        Command::Classify(c) => classify(c, &progress),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -368,4 +441,132 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
         );
     }
     Ok(())
+}
+
+fn load_classifier(name: &str) -> Result<planemap::classify::PlanarityModel> {
+    if name == "default" {
+        Ok(planemap::classify::default_model()?)
+    } else {
+        Ok(planemap::classify::read_model_path(std::path::Path::new(
+            name,
+        ))?)
+    }
+}
+
+fn classify(c: ClassifyCommand, progress: &Progress) -> Result<()> {
+    use planemap::classify::{self as cls, FeatureSpec, TrainConfig, TrainingSet};
+    match c {
+        ClassifyCommand::Train(a) => {
+            let spec = FeatureSpec::default();
+            let config = TrainConfig {
+                method: a.method.parse()?,
+                k: a.k,
+                max_knn_samples: a.max_samples,
+                logistic: cls::LogisticConfig {
+                    l2: a.l2,
+                    balance_classes: a.balance,
+                    ..Default::default()
+                },
+                threshold: a.threshold,
+            };
+            let mut set = TrainingSet::default();
+            let bar = progress.bar(a.workspaces.len() as u64, "features");
+            for ws in &a.workspaces {
+                set.extend(&cls::workspace_samples(ws, &spec)?);
+                bar.inc(1);
+            }
+            bar.finish();
+            let model = cls::train(&set, spec, &config)?;
+            cls::write_model_path(&a.output, &model)?;
+            let size = std::fs::metadata(&a.output)?.len();
+            println!(
+                "trained {} on {} cells ({} non-planar) from {} workspaces → {} ({size} bytes)",
+                a.method,
+                set.len(),
+                set.nonplanar(),
+                a.workspaces.len(),
+                a.output.display()
+            );
+        }
+        ClassifyCommand::Eval(a) => {
+            let model = load_classifier(&a.model)?;
+            println!(
+                "{:<28} {:>6} {:>9} {:>9} {:>9} {:>9} {:>12}",
+                "workspace", "unit", "nonplanar", "precision", "recall", "F1", "planar kept"
+            );
+            let mut total = cls::dataset::WorkspaceScores::default();
+            for ws in &a.workspaces {
+                let s = cls::evaluate_workspace(&model, ws)?;
+                total.cells.merge(&s.cells);
+                total.pixels.merge(&s.pixels);
+                print_scores(&ws.display().to_string(), &s);
+            }
+            if a.workspaces.len() > 1 {
+                print_scores("all", &total);
+            }
+        }
+        ClassifyCommand::Map(a) => {
+            let model = load_classifier(&a.model)?;
+            std::fs::create_dir_all(&a.output)?;
+            let sparse = a.sparse.clone().or_else(|| {
+                a.images
+                    .parent()
+                    .map(|p| p.join("sparse"))
+                    .filter(|p| p.is_dir())
+            });
+            let mut written = 0usize;
+            if let Some(sparse) = sparse {
+                let scene = planemap::io::colmap::read_model(&sparse)?.to_scene(Some(&a.images))?;
+                let bar = progress.bar(scene.views.len() as u64, "planarity maps");
+                for (i, view) in scene.views.iter().enumerate() {
+                    let image = view.load_image()?;
+                    let points = cls::ViewPoints::from_scene(&scene, i);
+                    let map = model.planarity_map(&image, Some(&points))?;
+                    let stem = planemap::pipeline::output_stem(&view.name);
+                    map.write_png(&a.output.join(format!("{stem}.png")))?;
+                    written += 1;
+                    bar.inc(1);
+                }
+                bar.finish();
+            } else {
+                let mut files: Vec<PathBuf> = std::fs::read_dir(&a.images)
+                    .with_context(|| format!("reading {}", a.images.display()))?
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| {
+                        p.extension().is_some_and(|x| {
+                            let x = x.to_string_lossy().to_ascii_lowercase();
+                            x == "png" || x == "jpg" || x == "jpeg"
+                        })
+                    })
+                    .collect();
+                files.sort();
+                for f in &files {
+                    let rgb = image::open(f)
+                        .with_context(|| format!("reading {}", f.display()))?
+                        .to_rgb8();
+                    let map = model.planarity_map(&planemap::ImageF32::from_rgb8(&rgb), None)?;
+                    let stem = planemap::pipeline::output_stem(&f.to_string_lossy());
+                    map.write_png(&a.output.join(format!("{stem}.png")))?;
+                    written += 1;
+                }
+            }
+            println!("wrote {written} planarity maps to {}", a.output.display());
+        }
+    }
+    Ok(())
+}
+
+fn print_scores(name: &str, s: &planemap::classify::dataset::WorkspaceScores) {
+    for (unit, c) in [("cells", &s.cells), ("pixels", &s.pixels)] {
+        println!(
+            "{:<28} {:>6} {:>9} {:>8.1}% {:>8.1}% {:>8.1}% {:>11.1}%",
+            name,
+            unit,
+            c.true_positive + c.false_negative,
+            100.0 * c.precision(),
+            100.0 * c.recall(),
+            100.0 * c.f1(),
+            100.0 * c.specificity()
+        );
+    }
 }
