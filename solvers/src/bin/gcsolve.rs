@@ -51,6 +51,10 @@ struct Args {
     max_cycles: usize,
     #[arg(long, value_enum, default_value = "fixed")]
     order: Order,
+    /// α-expansion warm-start sweeps (each site may take a neighbour's label if that lowers
+    /// the energy) before the first cycle; 0 disables.
+    #[arg(long, default_value_t = planemap_solvers::mrf::DEFAULT_WARM_SWEEPS)]
+    warm_sweeps: usize,
     /// Solve on the general (CSR) layout even if the edges form a grid.
     #[arg(long)]
     no_grid: bool,
@@ -154,11 +158,13 @@ fn solve<T: Cost>(inst: &Instance, args: &Args) -> Result<Outcome> {
         Mrf::grid(*w, *h, Connectivity::Four, l, DataCost::Dense(&unary))?
             .with_smoothness(Smoothness::Table(&pairwise))?
             .with_edge_weights(&weights_grid)?
+            .with_warm_start(args.warm_sweeps)
     } else {
         weights_general = convert(&inst.edge_weights);
         Mrf::general(n, &inst.edges, l, DataCost::Dense(&unary))?
             .with_smoothness(Smoothness::Table(&pairwise))?
             .with_edge_weights(&weights_general)?
+            .with_warm_start(args.warm_sweeps)
     };
     let cfg = ExpansionConfig {
         max_cycles: args.max_cycles,
