@@ -465,7 +465,7 @@ mod tests {
     fn warm_start_sweep_lowers_the_energy_exactly_as_reported() {
         let mut rng = Rng(71);
         for trial in 0..40 {
-            let (w, h, l) = (5, 4, 4);
+            let (w, h, l) = (4, 3, 4);
             let data = random_data(&mut rng, w * h, l);
             let mrf = Mrf::grid(w, h, Connectivity::Four, l, DataCost::Dense(&data))
                 .unwrap()
