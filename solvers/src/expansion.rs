@@ -19,7 +19,10 @@ use crate::moves::{
     build_move, label_cost_delta, move_delta, solve_move_fast, BuilderEmit, CycleStats, Solution,
     SplitMix,
 };
-use crate::mrf::{energy_of, feasible, with_terms, DataFn, Mrf, MrfError, PairFn};
+use crate::mrf::{
+    energy_of, feasible, with_terms, DataCost, DataFn, LabelMajorData, Mrf, MrfError, PairFn,
+    SiteGraph,
+};
 
 /// Order in which the labels are expanded within a cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -68,8 +71,25 @@ impl<T: Cost> Mrf<'_, T> {
             }
             None => self.data_argmin()?,
         };
-        Ok(with_terms!(self, |topo, data, pair| expand(
-            self, topo, data, &pair, config, labels
+        let mrf = self;
+        if let (DataCost::Dense(d), true) = (&mrf.data, mrf.num_labels > 2) {
+            // Label-major copy of the data costs (memory: one more sites × labels array):
+            // each move then streams D(·, α) instead of touching every site's cost row.
+            let mut buf = Vec::new();
+            let dd = LabelMajorData::transpose(d, mrf.num_labels, &mut buf);
+            return Ok(match &mrf.graph {
+                SiteGraph::Grid(g) => with_terms!(@pair mrf, g, dd, |topo, data, pair| expand(
+                    mrf, topo, data, &pair, config, labels
+                )),
+                SiteGraph::General(g) => {
+                    with_terms!(@pair mrf, g, dd, |topo, data, pair| expand(
+                        mrf, topo, data, &pair, config, labels
+                    ))
+                }
+            });
+        }
+        Ok(with_terms!(mrf, |topo, data, pair| expand(
+            mrf, topo, data, &pair, config, labels
         )))
     }
 }

@@ -524,6 +524,37 @@ impl<T: Cost> DataFn<T> for DenseData<'_, T> {
         self.data[p * self.labels + l as usize]
     }
 }
+/// Dense data costs stored label-major (`D(p, l) = data[l * sites + p]`): an expansion
+/// move reads `D(·, α)` as one contiguous stream instead of one cache line per site.
+pub(crate) struct LabelMajorData<'a, T> {
+    pub(crate) data: &'a [T],
+    pub(crate) sites: usize,
+}
+impl<T: Cost> DataFn<T> for LabelMajorData<'_, T> {
+    #[inline(always)]
+    fn d(&self, p: usize, l: u32) -> T {
+        self.data[l as usize * self.sites + p]
+    }
+}
+impl<'a, T: Cost> LabelMajorData<'a, T> {
+    /// Transposes site-major `data` (`sites × labels`) into `buf`.
+    pub(crate) fn transpose(data: &[T], labels: usize, buf: &'a mut Vec<T>) -> Self {
+        let sites = data.len() / labels;
+        buf.clear();
+        buf.resize(data.len(), T::ZERO);
+        const B: usize = 256;
+        for p0 in (0..sites).step_by(B) {
+            let p1 = (p0 + B).min(sites);
+            for l in 0..labels {
+                let dst = &mut buf[l * sites + p0..l * sites + p1];
+                for (i, x) in dst.iter_mut().enumerate() {
+                    *x = data[(p0 + i) * labels + l];
+                }
+            }
+        }
+        LabelMajorData { data: buf, sites }
+    }
+}
 pub(crate) struct FnData<'a, 'b, T>(pub(crate) &'b (dyn Fn(usize, u32) -> T + Sync + 'a));
 impl<T: Cost> DataFn<T> for FnData<'_, '_, T> {
     #[inline(always)]
