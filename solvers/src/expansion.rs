@@ -10,7 +10,10 @@
 //! known to fail are skipped: a label whose last expansion failed is not retried until some
 //! other move has changed the labelling, and (for exact integer costs, when no truncation
 //! was needed) a label whose expansion just succeeded is known to be optimal w.r.t. its own
-//! move.
+//! move. Before the first cycle a few warm-start sweeps move sites to a neighbour's label
+//! when that lowers the energy ([`Mrf::with_warm_start`]), so the first cycle (the costly
+//! one from a noisy start) pushes much less flow; dense data costs are read from a
+//! label-major copy so that a move streams `D(·, α)`.
 use std::time::Instant;
 
 use crate::cost::Cost;
