@@ -11,7 +11,10 @@ runs are interleaved (ours, gco-wrapper, bkgco, ... per repeat) so machine load 
 alike; the table reports medians over the repeats. Energies are re-evaluated here with numpy
 from each solver's labels. Times are the solve call only (files already in memory): for GCO
 the `expansion()` call, for PyMaxflow the `maxflow()` call, for gcsolve its own `seconds`
-(problem setup + solve; for max-flow also the graph build, reported separately).
+(problem setup + solve; for max-flow also the graph build, reported separately). Beside the
+wall times the table gives each solver's thread CPU time (Python `time.thread_time()`,
+gcsolve `/proc/thread-self/schedstat`) and its ratio: on a shared, loaded machine wall times
+include waiting for a core, CPU times do not.
 Results are also written to solvers/bench/results/peers.json.
 """
 import argparse
@@ -75,12 +78,12 @@ def worker_gco_wrapper(d):
     gc.set_smooth_cost(pw.astype(np.intc))
     for i in range(n):
         gc.init_label_at_site(i, int(init[i]))
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.thread_time()
     gc.expansion(-1)
-    dt = time.perf_counter() - t
+    dt, dc = time.perf_counter() - t, time.thread_time() - c
     labels = gc.get_labels()
     gc.destroy_graph()
-    return {"seconds": dt, "energy": energy(d, labels)}
+    return {"seconds": dt, "cpu_seconds": dc, "energy": energy(d, labels)}
 
 
 def worker_bkgco(d):
@@ -91,12 +94,12 @@ def worker_bkgco(d):
     n, L = u.shape
     g = bkgco.GCO(n, L, dtype=np.int32)
     g.set_data_cost(u).set_smooth_cost(pw).set_neighbors(e, w).set_labeling(init)
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.thread_time()
     g.expansion()
-    dt = time.perf_counter() - t
+    dt, dc = time.perf_counter() - t, time.thread_time() - c
     labels = g.get_labeling()
     g.close()
-    return {"seconds": dt, "energy": energy(d, labels)}
+    return {"seconds": dt, "cpu_seconds": dc, "energy": energy(d, labels)}
 
 
 def worker_pymaxflow(d):
@@ -119,11 +122,12 @@ def worker_pymaxflow(d):
     g.add_grid_edges(nodes, weights=right, structure=np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]]), symmetric=True)
     g.add_grid_edges(nodes, weights=down, structure=np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]]), symmetric=True)
     g.add_grid_tedges(nodes, u[:, 1].reshape(h, width), u[:, 0].reshape(h, width))
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.thread_time()
     flow = g.maxflow()
-    t2 = time.perf_counter()
+    t2, c2 = time.perf_counter(), time.thread_time()
     labels = g.get_grid_segments(nodes).ravel().astype(np.int32)
-    return {"seconds": t2 - t1, "build_seconds": t1 - t0, "flow": float(flow), "energy": energy(d, labels)}
+    return {"seconds": t2 - t1, "cpu_seconds": c2 - c1, "build_seconds": t1 - t0, "flow": float(flow),
+            "energy": energy(d, labels)}
 
 
 WORKERS = {"gco-wrapper": worker_gco_wrapper, "bkgco": worker_bkgco, "pymaxflow": worker_pymaxflow}
@@ -193,14 +197,19 @@ def main():
             for p in peers:
                 runs[p].append(run_worker(p, d))
             print(f"{name} repeat {rep + 1}/{repeats}: "
-                  + ", ".join(f"{k} {v[-1].get('seconds', float('nan')):.3f}s" for k, v in runs.items()), file=sys.stderr)
+                  + ", ".join(f"{k} {v[-1].get('seconds', float('nan')):.3f}s"
+                              f" (cpu {v[-1].get('cpu_seconds', float('nan')):.3f}s)" for k, v in runs.items()),
+                  file=sys.stderr)
         results[name] = runs
     print(f"\nmedians over {args.repeats} interleaved runs ({args.large_repeats} for sites x labels >= 10M); "
           f"load average at start {load_avg[0]:.1f} (2 cores, shared)")
-    print(f"{'instance':22} {'solver':12} {'energy':>12} {'dE vs ours':>11} {'seconds':>9} {'ours/peer':>10}")
+    print("seconds = wall time; cpu = CPU time of the solving thread (steadier on a shared machine)")
+    print(f"{'instance':22} {'solver':12} {'energy':>12} {'dE vs ours':>11} {'seconds':>9} {'ours/peer':>10}"
+          f" {'cpu s':>8} {'cpu ratio':>10}")
     for name, runs in results.items():
         ours_t = med(runs["ours"], "seconds")
         ours_e = med(runs["ours"], "energy_check")
+        ours_c = med(runs["ours"], "cpu_seconds")
         for solver, rs in runs.items():
             errs = [r["error"] for r in rs if "error" in r]
             if errs:
@@ -208,16 +217,20 @@ def main():
                 continue
             e = med(rs, "energy_check" if solver == "ours" else "energy")
             t = med(rs, "seconds")
+            c = med(rs, "cpu_seconds")
             de = "" if solver == "ours" else f"{100.0 * (ours_e - e) / max(abs(e), 1):+.3f}%"
             ratio = "" if solver == "ours" else f"{ours_t / t:.3f}"
+            cratio = "" if solver == "ours" else f"{ours_c / c:.3f}"
             extra = ""
             if "flow" in rs[0]:
                 extra = f" flow={med(rs, 'flow'):.0f}"
                 if solver == "ours":
-                    extra += f" (build {med(rs, 'build_seconds'):.3f}s + maxflow {med(rs, 'maxflow_seconds'):.3f}s)"
+                    extra += (f" (build {med(rs, 'build_seconds'):.3f}s + maxflow {med(rs, 'maxflow_seconds'):.3f}s,"
+                              f" maxflow cpu {med(rs, 'maxflow_cpu_seconds'):.3f}s)")
                 else:
-                    extra += f"; maxflow-only ratio {med(runs['ours'], 'maxflow_seconds') / t:.3f}"
-            print(f"{name:22} {solver:12} {e:12.0f} {de:>11} {t:9.3f} {ratio:>10}{extra}")
+                    extra += (f"; maxflow-only ratio {med(runs['ours'], 'maxflow_seconds') / t:.3f},"
+                              f" cpu {med(runs['ours'], 'maxflow_cpu_seconds') / c:.3f}")
+            print(f"{name:22} {solver:12} {e:12.0f} {de:>11} {t:9.3f} {ratio:>10} {c:8.3f} {cratio:>10}{extra}")
     os.makedirs(os.path.join(HERE, "results"), exist_ok=True)
     with open(os.path.join(HERE, "results", "peers.json"), "w") as f:
         json.dump({"load_average": load_avg, "results": results}, f, indent=1)

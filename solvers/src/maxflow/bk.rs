@@ -308,62 +308,61 @@ impl<T: Cost, Tp: Topology> MaxFlow<T, Tp> {
         }
     }
 
-    /// Saturates the length-two paths source → p → q → sink in one linear pass before the
-    /// trees are grown: on image grids most of the flow takes such paths, and pushing it
-    /// here is far cheaper than discovering each path by tree growth.
-    fn push_short_paths(&mut self) {
-        for p in 0..self.tr.len() as u32 {
-            let mut rp = at!(self.tr, p as usize);
-            if !rp.is_pos() {
-                continue;
-            }
-            let arcs = self.topo.arcs(p);
-            for a in arcs {
-                let c = at!(self.cap, a as usize);
-                if !c.is_pos() {
-                    continue;
-                }
-                let q = self.topo.head(a) as usize;
-                let rq = -at!(self.tr, q);
-                if !rq.is_pos() {
-                    continue;
-                }
-                let b = rp.min_of(rq).min_of(c);
-                rp -= b;
-                at_mut!(self.tr, q) += b;
-                at_mut!(self.cap, a as usize) = c - b;
-                at_mut!(self.cap, self.topo.sister(a) as usize) += b;
-                self.flow += b.widen();
-                if !rp.is_pos() {
-                    break;
-                }
-            }
-            at_mut!(self.tr, p as usize) = rp;
-        }
-    }
-
+    /// Saturates the length-two paths source → p → q → sink and builds the initial trees
+    /// in one linear pass: on image grids most of the flow takes such paths, and pushing it
+    /// here is far cheaper than discovering each path by tree growth. Node `p` is pushed
+    /// from, then classified; a node `q < p` already classified as sink-linked whose
+    /// residual a later push exhausts becomes free again (it stays in the queue; popping
+    /// skips free nodes).
     fn init_trees(&mut self) {
-        self.push_short_paths();
         self.q_first = NONE;
         self.q_last = NONE;
         self.time = 0;
         self.orphans.clear();
-        for i in 0..self.tr.len() {
-            at_mut!(self.nodes, i).next = NONE;
-            at_mut!(self.nodes, i).ts = 0;
-            let r = at!(self.tr, i);
-            if r > T::ZERO {
-                at_mut!(self.nodes, i).parent = TERMINAL;
-                at_mut!(self.nodes, i).set_sink(false);
-                at_mut!(self.nodes, i).set_dist(1);
-                self.activate(i as u32);
-            } else if r < T::ZERO {
-                at_mut!(self.nodes, i).parent = TERMINAL;
-                at_mut!(self.nodes, i).set_sink(true);
-                at_mut!(self.nodes, i).set_dist(1);
-                self.activate(i as u32);
+        for p in 0..self.tr.len() as u32 {
+            let pu = p as usize;
+            let mut rp = at!(self.tr, pu);
+            if rp.is_pos() {
+                let arcs = self.topo.arcs(p);
+                for a in arcs {
+                    let c = at!(self.cap, a as usize);
+                    if !c.is_pos() {
+                        continue;
+                    }
+                    let q = self.topo.head(a) as usize;
+                    let rq = -at!(self.tr, q);
+                    if !rq.is_pos() {
+                        continue;
+                    }
+                    let b = rp.min_of(rq).min_of(c);
+                    rp -= b;
+                    at_mut!(self.tr, q) += b;
+                    at_mut!(self.cap, a as usize) = c - b;
+                    at_mut!(self.cap, self.topo.sister(a) as usize) += b;
+                    self.flow += b.widen();
+                    if q < pu && at!(self.tr, q) == T::ZERO {
+                        at_mut!(self.nodes, q).parent = NONE;
+                    }
+                    if !rp.is_pos() {
+                        break;
+                    }
+                }
+                at_mut!(self.tr, pu) = rp;
+            }
+            at_mut!(self.nodes, pu).next = NONE;
+            at_mut!(self.nodes, pu).ts = 0;
+            if rp > T::ZERO {
+                at_mut!(self.nodes, pu).parent = TERMINAL;
+                at_mut!(self.nodes, pu).set_sink(false);
+                at_mut!(self.nodes, pu).set_dist(1);
+                self.activate(p);
+            } else if rp < T::ZERO {
+                at_mut!(self.nodes, pu).parent = TERMINAL;
+                at_mut!(self.nodes, pu).set_sink(true);
+                at_mut!(self.nodes, pu).set_dist(1);
+                self.activate(p);
             } else {
-                at_mut!(self.nodes, i).parent = NONE;
+                at_mut!(self.nodes, pu).parent = NONE;
             }
         }
         for &i in &self.changed {
