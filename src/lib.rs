@@ -8,6 +8,7 @@
 
 pub mod axes;
 pub mod baseline;
+pub mod bench;
 pub mod eval;
 pub mod geometry;
 pub mod hypotheses;

@@ -52,6 +52,43 @@ enum Command {
     /// on textured and on plain pixels.
     #[command(after_help = "Example:\n  planemap sweep --model ws/sparse -o ws/sweep")]
     Sweep(SweepArgs),
+    /// Benchmark: render synthetic scenes (cached), run planemap and the baselines on each,
+    /// score them against ground truth; writes results.json, results.md and PNG charts.
+    #[command(after_help = "Examples:
+  planemap bench scenes/ -o bench-out
+  planemap bench scenes/ -o bench-out --methods planemap,sweep --scenes room,hard --size small")]
+    Bench(BenchArgs),
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Scene files or folders of *.toml (default: scenes/).
+    scenes: Vec<PathBuf>,
+    /// Output directory.
+    #[arg(short, long, default_value = "bench-out")]
+    output: PathBuf,
+    /// Methods (comma-separated): planemap, planemap-nolines, sweep, delaunay.
+    #[arg(long, value_delimiter = ',')]
+    methods: Option<Vec<String>>,
+    /// Only scenes with these names, file stems or categories (comma-separated).
+    #[arg(long = "scenes", value_delimiter = ',')]
+    scene_filter: Option<Vec<String>>,
+    /// Image size: tiny (96x72), small (160x120), default (each scene's own), large
+    /// (640x480), stress (1280x960) or WxH.
+    #[arg(long, default_value = "default")]
+    size: String,
+    /// Cache of rendered scenes (default: OUTPUT/cache).
+    #[arg(long)]
+    cache: Option<PathBuf>,
+    /// planemap configuration file (TOML), for the planemap methods.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Override a planemap config value (repeatable), e.g. --set planemap.lambda=0.5.
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    overrides: Vec<String>,
+    /// Do not write per-view error maps.
+    #[arg(long)]
+    no_maps: bool,
 }
 
 #[derive(Args)]
@@ -150,6 +187,7 @@ fn main() -> ExitCode {
         Command::Run(a) => run(a, &progress),
         Command::Demo(a) => demo(a, &progress),
         Command::Sweep(a) => sweep(a, &progress),
+        Command::Bench(a) => bench(a, &progress),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -367,5 +405,38 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
             total.plain
         );
     }
+    Ok(())
+}
+
+fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
+    use planemap::bench::{collect_scene_files, parse_size, run_bench, BenchConfig, Method};
+    let mut cfg = BenchConfig::default();
+    if let Some(m) = &a.methods {
+        cfg.methods = m
+            .iter()
+            .map(|s| Method::from_name(s))
+            .collect::<Result<_, _>>()?;
+    }
+    cfg.size = parse_size(&a.size)?;
+    cfg.scene_filter = a.scene_filter.clone().unwrap_or_default();
+    cfg.cache_dir = a.cache.clone();
+    cfg.error_maps = !a.no_maps;
+    let config = match &a.config {
+        Some(p) => Config::from_path(p)?,
+        None => Config::default(),
+    };
+    cfg.planemap = config.with_overrides(&a.overrides)?;
+    let scenes = if a.scenes.is_empty() {
+        vec![PathBuf::from("scenes")]
+    } else {
+        a.scenes.clone()
+    };
+    let files = collect_scene_files(&scenes)?;
+    let results = run_bench(&files, &cfg, &a.output, progress)?;
+    println!("{}", planemap::bench::report::markdown(&results));
+    println!(
+        "wrote results.json, results.md, accuracy.png, time.png and maps/ to {}",
+        a.output.display()
+    );
     Ok(())
 }

@@ -20,6 +20,10 @@ pub struct SceneSpec {
     /// Free text: what the scene tests.
     #[serde(default)]
     pub description: String,
+    /// Benchmark category (`planemap bench --scenes CATEGORY`), e.g. "manhattan-interior",
+    /// "non-manhattan", "hard"; free text, not used by the renderer.
+    #[serde(default)]
+    pub category: String,
     /// Seed of every random choice (textures, noise, exposures, sparse points).
     #[serde(default = "default_seed")]
     pub seed: u64,
