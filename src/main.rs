@@ -67,7 +67,8 @@ struct BenchArgs {
     /// Output directory.
     #[arg(short, long, default_value = "bench-out")]
     output: PathBuf,
-    /// Methods (comma-separated): planemap, planemap-nolines, sweep, delaunay.
+    /// Methods (comma-separated): planemap, planemap-nolines, sweep, delaunay, or all
+    /// (default: planemap, sweep, delaunay).
     #[arg(long, value_delimiter = ',')]
     methods: Option<Vec<String>>,
     /// Only scenes with these names, file stems or categories (comma-separated).
@@ -89,6 +90,12 @@ struct BenchArgs {
     /// Do not write per-view error maps.
     #[arg(long)]
     no_maps: bool,
+    /// Planes of the plane-sweep baseline (the baseline's own default is 128).
+    #[arg(long, default_value_t = planemap::bench::BENCH_SWEEP_PLANES)]
+    sweep_planes: usize,
+    /// Neighbour views of the plane-sweep baseline (its own default is 4).
+    #[arg(long, default_value_t = planemap::bench::BENCH_SWEEP_NEIGHBOURS)]
+    sweep_neighbours: usize,
 }
 
 #[derive(Args)]
@@ -412,15 +419,20 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
     use planemap::bench::{collect_scene_files, parse_size, run_bench, BenchConfig, Method};
     let mut cfg = BenchConfig::default();
     if let Some(m) = &a.methods {
-        cfg.methods = m
-            .iter()
-            .map(|s| Method::from_name(s))
-            .collect::<Result<_, _>>()?;
+        cfg.methods = if m.iter().any(|s| s == "all") {
+            Method::ALL.to_vec()
+        } else {
+            m.iter()
+                .map(|s| Method::from_name(s))
+                .collect::<Result<_, _>>()?
+        };
     }
     cfg.size = parse_size(&a.size)?;
     cfg.scene_filter = a.scene_filter.clone().unwrap_or_default();
     cfg.cache_dir = a.cache.clone();
     cfg.error_maps = !a.no_maps;
+    cfg.sweep.planes = a.sweep_planes;
+    cfg.sweep.neighbours = a.sweep_neighbours;
     let config = match &a.config {
         Some(p) => Config::from_path(p)?,
         None => Config::default(),

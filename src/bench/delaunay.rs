@@ -6,7 +6,7 @@
 //! image, so this is barycentric interpolation of *inverse* depth; the normal is the
 //! triangle's. Pixels outside the convex hull of the projections get no depth.
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::Vector3;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 
 use crate::scene::Scene;
@@ -116,14 +116,14 @@ fn rasterise(
     let (pa, pb, pc) = (cam(a), cam(b), cam(c));
     let mut nrm = (pb - pa).cross(&(pc - pa));
     let len = nrm.norm();
-    if !(len > 0.0) {
+    // Also rejects NaN.
+    if len.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return;
     }
     nrm /= len;
     if nrm.dot(&pa) > 0.0 {
         nrm = -nrm;
     }
-    let _ = Point3::<f64>::origin;
     let nf = [nrm.x as f32, nrm.y as f32, nrm.z as f32];
     let inv = [1.0 / a.depth, 1.0 / b.depth, 1.0 / c.depth];
     let min_x = a.xy.x.min(b.xy.x).min(c.xy.x);

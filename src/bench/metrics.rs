@@ -86,12 +86,15 @@ pub fn has_depth(z: f32) -> bool {
     z.is_finite() && z > 0.0
 }
 
+/// Predicted and ground-truth normals of a view (world frame, row-major).
+pub type NormalPair<'a> = (&'a [[f32; 3]], &'a [[f32; 3]]);
+
 /// Scores one view's depth (and optionally normals; both world frame, unit) against ground
 /// truth. Slices are row-major and of equal length; ground-truth depth ≤ 0 means "no surface".
 pub fn depth_counts(
     pred_depth: &[f32],
     gt_depth: &[f32],
-    normals: Option<(&[[f32; 3]], &[[f32; 3]])>,
+    normals: Option<NormalPair<'_>>,
 ) -> DepthCounts {
     let mut c = DepthCounts::default();
     for (p, (&z, &gz)) in pred_depth.iter().zip(gt_depth).enumerate() {

@@ -96,6 +96,10 @@ pub enum Method {
 }
 
 impl Method {
+    /// The methods run by default: planemap against both baselines (the variant is opt-in,
+    /// it doubles planemap's share of the run time).
+    pub const DEFAULT: [Method; 3] = [Method::Planemap, Method::Sweep, Method::Delaunay];
+
     /// Every method, in report order.
     pub const ALL: [Method; 4] = [
         Method::Planemap,
@@ -182,18 +186,36 @@ pub struct BenchConfig {
 impl Default for BenchConfig {
     fn default() -> Self {
         BenchConfig {
-            methods: Method::ALL.to_vec(),
+            methods: Method::DEFAULT.to_vec(),
             size: None,
             scene_filter: Vec::new(),
             cache_dir: None,
             planemap: Config::default(),
-            sweep: SweepBaselineConfig::default(),
+            sweep: bench_sweep_config(),
             fusion: Config::default().fusion,
             cloud_tolerance_fraction: 0.01,
             error_maps: true,
         }
     }
 }
+
+/// The plane-sweep settings of the benchmark: [`SweepBaselineConfig::default`] with
+/// [`BENCH_SWEEP_PLANES`] planes and [`BENCH_SWEEP_NEIGHBOURS`] neighbours, so that the whole
+/// suite fits its time budget on a shared 2-core machine (the sweep's cost is linear in
+/// planes × neighbours; sub-plane refinement keeps the depth continuous). `--sweep-planes`
+/// and `--sweep-neighbours` restore the full setting.
+pub fn bench_sweep_config() -> SweepBaselineConfig {
+    SweepBaselineConfig {
+        planes: BENCH_SWEEP_PLANES,
+        neighbours: BENCH_SWEEP_NEIGHBOURS,
+        ..SweepBaselineConfig::default()
+    }
+}
+
+/// Fronto-parallel planes of the benchmark's sweep (the baseline's own default is 128).
+pub const BENCH_SWEEP_PLANES: usize = 64;
+/// Neighbour views of the benchmark's sweep (the baseline's own default is 4).
+pub const BENCH_SWEEP_NEIGHBOURS: usize = 2;
 
 /// One method's scores on one scene.
 #[derive(Debug, Clone, Serialize)]
@@ -353,7 +375,25 @@ pub fn run_bench(
         progress.println(&format!("scene {} ({category})", spec.name));
         let cached = cache::render_cached(file, cfg.size, &cache_root, progress)?;
         let result = bench_scene(&cached, &category, file, cfg, out, progress)?;
+        for m in &result.methods {
+            progress.println(&format!(
+                "  {:<17} depth within 1%: {:5.1}%  F: {:5.1}%  {:6.1} s",
+                m.method,
+                100.0 * m.depth.accuracy(1),
+                100.0 * m.cloud.f_score,
+                m.seconds
+            ));
+        }
         scenes.push(result);
+        // Partial results, so an interrupted run still leaves the scenes done so far.
+        let partial = BenchResults {
+            renderer_version: cache::RENDERER_VERSION,
+            depth_thresholds: metrics::DEPTH_THRESHOLDS,
+            cloud_tolerance_fraction: cfg.cloud_tolerance_fraction,
+            scenes: scenes.clone(),
+            seconds: start.elapsed().as_secs_f64(),
+        };
+        report::write_reports(&partial, out)?;
     }
     if scenes.is_empty() {
         return Err(BenchError::Option(
@@ -404,7 +444,7 @@ fn bench_scene(
         reset_peak_memory();
         let t = Instant::now();
         let run_dir = out.join("runs").join(&name).join(m.name());
-        let pred = run_method(m, &scene, cfg, &run_dir, progress);
+        let pred = run_method(m, &scene, cfg, &run_dir);
         let seconds = t.elapsed().as_secs_f64();
         let peak = peak_memory_bytes();
         let result = match pred {
@@ -525,7 +565,6 @@ fn run_method(
     scene: &Scene,
     cfg: &BenchConfig,
     run_dir: &Path,
-    progress: &Progress,
 ) -> Result<Prediction, String> {
     match m {
         Method::Planemap | Method::PlanemapNoLines => {
@@ -533,8 +572,8 @@ fn run_method(
             if m == Method::PlanemapNoLines {
                 config.planemap.dominant_line_weight = 1.0;
             }
+            // The bench prints its own progress: the run's bars would interleave.
             let quiet = Progress::new(true);
-            let _ = progress;
             let (_, views, summary) =
                 pipeline::run(scene, &config, run_dir, &RunOptions::default(), &quiet)
                     .map_err(|e| e.to_string())?;
