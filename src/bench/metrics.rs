@@ -436,13 +436,24 @@ pub fn cloud_scores(
     }
 }
 
+fn proc_status_bytes(key: &str) -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = text.lines().find(|l| l.starts_with(key))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
 /// Peak resident memory of this process (bytes) since the last [`reset_peak_memory`], from
 /// `VmHWM` in /proc/self/status; `None` where that file does not exist.
 pub fn peak_memory_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = text.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
+    proc_status_bytes("VmHWM:")
+}
+
+/// Current resident memory of this process (bytes), `VmRSS` in /proc/self/status. Memory
+/// freed by earlier work often stays resident (the allocator keeps it), so a method's own
+/// need is bounded below by its peak minus this value at its start.
+pub fn resident_memory_bytes() -> Option<u64> {
+    proc_status_bytes("VmRSS:")
 }
 
 /// Resets the peak-memory counter to the current resident size (Linux: writing 5 to

@@ -30,8 +30,8 @@ use crate::progress::Progress;
 use crate::scene::Scene;
 
 use metrics::{
-    cloud_scores, depth_counts, has_depth, peak_memory_bytes, reset_peak_memory, segmentation,
-    CloudScores, DepthCounts, MeshDistance, Segmentation,
+    cloud_scores, depth_counts, has_depth, peak_memory_bytes, reset_peak_memory,
+    resident_memory_bytes, segmentation, CloudScores, DepthCounts, MeshDistance, Segmentation,
 };
 
 /// Errors of the benchmark.
@@ -236,8 +236,11 @@ pub struct MethodResult {
     pub stages: Vec<(String, f64)>,
     /// Total wall-clock seconds of the method (all stages).
     pub seconds: f64,
-    /// Peak resident memory of the process during the method (bytes), if measurable.
+    /// Peak resident memory of the process during the method (bytes), if measurable. It
+    /// includes what earlier work left resident: see `start_memory_bytes`.
     pub peak_memory_bytes: Option<u64>,
+    /// Resident memory when the method started (bytes).
+    pub start_memory_bytes: Option<u64>,
 }
 
 /// One scene's results.
@@ -442,6 +445,7 @@ fn bench_scene(
         let bar_label = format!("{name}: {}", m.name());
         progress.println(&bar_label);
         reset_peak_memory();
+        let start_memory = resident_memory_bytes();
         let t = Instant::now();
         let run_dir = out.join("runs").join(&name).join(m.name());
         let pred = run_method(m, &scene, cfg, &run_dir);
@@ -455,6 +459,7 @@ fn bench_scene(
                     stages: pred.stages,
                     seconds,
                     peak_memory_bytes: peak,
+                    start_memory_bytes: start_memory,
                     ..r
                 }
             }
@@ -470,6 +475,7 @@ fn bench_scene(
                     stages: Vec::new(),
                     seconds,
                     peak_memory_bytes: peak,
+                    start_memory_bytes: start_memory,
                 }
             }
         };
@@ -773,5 +779,6 @@ fn score(
         stages: Vec::new(),
         seconds: 0.0,
         peak_memory_bytes: None,
+        start_memory_bytes: None,
     }
 }

@@ -106,7 +106,7 @@ pub fn markdown(results: &BenchResults) -> String {
         s.push_str(&format!(" **{} / {}** |", pct(d / count), pct(f / count)));
     }
     s.push_str("\n\nAll metrics:\n\n");
-    s.push_str("| scene | method | ≤0.5% | ≤1% | ≤2% | MAE | complete | normal° | ≤10° | planes | over/under | τ | cloud acc | cloud comp | F | time s | peak MB |\n");
+    s.push_str("| scene | method | ≤0.5% | ≤1% | ≤2% | MAE | complete | normal° | ≤10° | planes | over/under | τ | cloud acc | cloud comp | F | time s | peak MB (+growth) |\n");
     s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for sc in &results.scenes {
         for m in &sc.methods {
@@ -152,8 +152,15 @@ pub fn markdown(results: &BenchResults) -> String {
                 pct(m.cloud.completeness),
                 pct(m.cloud.f_score),
                 num(m.seconds, 1),
-                m.peak_memory_bytes
-                    .map_or("–".into(), |b| format!("{:.0}", b as f64 / 1048576.0)),
+                match (m.peak_memory_bytes, m.start_memory_bytes) {
+                    (Some(p), Some(s)) => format!(
+                        "{:.0} (+{:.0})",
+                        p as f64 / 1048576.0,
+                        p.saturating_sub(s) as f64 / 1048576.0
+                    ),
+                    (Some(p), None) => format!("{:.0}", p as f64 / 1048576.0),
+                    _ => "–".into(),
+                },
             ));
         }
     }
