@@ -8,6 +8,7 @@
 
 pub mod axes;
 pub mod baseline;
+pub mod bench;
 pub mod classify;
 pub mod eval;
 pub mod geometry;

@@ -56,6 +56,12 @@ enum Command {
     /// score on held-out ones, write per-view planarity maps.
     #[command(subcommand)]
     Classify(ClassifyCommand),
+    /// Benchmark: render synthetic scenes (cached), run planemap and the baselines on each,
+    /// score them against ground truth; writes results.json, results.md and PNG charts.
+    #[command(after_help = "Examples:
+  planemap bench scenes/ -o bench-out
+  planemap bench scenes/ -o bench-out --methods planemap,sweep --scenes room,hard --size small")]
+    Bench(BenchArgs),
 }
 
 #[derive(Subcommand)]
@@ -124,6 +130,44 @@ struct ClassifyMapArgs {
     /// Output directory (NAME.png per view).
     #[arg(short, long)]
     output: PathBuf,
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Scene files or folders of *.toml (default: scenes/).
+    scenes: Vec<PathBuf>,
+    /// Output directory.
+    #[arg(short, long, default_value = "bench-out")]
+    output: PathBuf,
+    /// Methods (comma-separated): planemap, planemap-nolines, sweep, delaunay, or all
+    /// (default: planemap, sweep, delaunay).
+    #[arg(long, value_delimiter = ',')]
+    methods: Option<Vec<String>>,
+    /// Only scenes with these names, file stems or categories (comma-separated).
+    #[arg(long = "scenes", value_delimiter = ',')]
+    scene_filter: Option<Vec<String>>,
+    /// Image size: tiny (96x72), small (160x120), default (each scene's own), large
+    /// (640x480), stress (1280x960) or WxH.
+    #[arg(long, default_value = "default")]
+    size: String,
+    /// Cache of rendered scenes (default: OUTPUT/cache).
+    #[arg(long)]
+    cache: Option<PathBuf>,
+    /// planemap configuration file (TOML), for the planemap methods.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Override a planemap config value (repeatable), e.g. --set planemap.lambda=0.5.
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    overrides: Vec<String>,
+    /// Do not write per-view error maps.
+    #[arg(long)]
+    no_maps: bool,
+    /// Planes of the plane-sweep baseline (the baseline's own default is 128).
+    #[arg(long, default_value_t = planemap::bench::BENCH_SWEEP_PLANES)]
+    sweep_planes: usize,
+    /// Neighbour views of the plane-sweep baseline (its own default is 4).
+    #[arg(long, default_value_t = planemap::bench::BENCH_SWEEP_NEIGHBOURS)]
+    sweep_neighbours: usize,
 }
 
 #[derive(Args)]
@@ -223,6 +267,7 @@ fn main() -> ExitCode {
         Command::Demo(a) => demo(a, &progress),
         Command::Sweep(a) => sweep(a, &progress),
         Command::Classify(c) => classify(c, &progress),
+        Command::Bench(a) => bench(a, &progress),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -569,4 +614,42 @@ fn print_scores(name: &str, s: &planemap::classify::dataset::WorkspaceScores) {
             100.0 * c.specificity()
         );
     }
+}
+
+fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
+    use planemap::bench::{collect_scene_files, parse_size, run_bench, BenchConfig, Method};
+    let mut cfg = BenchConfig::default();
+    if let Some(m) = &a.methods {
+        cfg.methods = if m.iter().any(|s| s == "all") {
+            Method::ALL.to_vec()
+        } else {
+            m.iter()
+                .map(|s| Method::from_name(s))
+                .collect::<Result<_, _>>()?
+        };
+    }
+    cfg.size = parse_size(&a.size)?;
+    cfg.scene_filter = a.scene_filter.clone().unwrap_or_default();
+    cfg.cache_dir = a.cache.clone();
+    cfg.error_maps = !a.no_maps;
+    cfg.sweep.planes = a.sweep_planes;
+    cfg.sweep.neighbours = a.sweep_neighbours;
+    let config = match &a.config {
+        Some(p) => Config::from_path(p)?,
+        None => Config::default(),
+    };
+    cfg.planemap = config.with_overrides(&a.overrides)?;
+    let scenes = if a.scenes.is_empty() {
+        vec![PathBuf::from("scenes")]
+    } else {
+        a.scenes.clone()
+    };
+    let files = collect_scene_files(&scenes)?;
+    let results = run_bench(&files, &cfg, &a.output, progress)?;
+    println!("{}", planemap::bench::report::markdown(&results));
+    println!(
+        "wrote results.json, results.md, accuracy.png, time.png and maps/ to {}",
+        a.output.display()
+    );
+    Ok(())
 }

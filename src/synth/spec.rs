@@ -20,6 +20,11 @@ pub struct SceneSpec {
     /// Free text: what the scene tests.
     #[serde(default)]
     pub description: String,
+    /// Benchmark category (`planemap bench --scenes CATEGORY`), e.g. "manhattan-interior",
+    /// "non-manhattan", "hard"; free text, not used by the renderer (and not written when
+    /// empty, so existing scenes serialise as before).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub category: String,
     /// Seed of every random choice (textures, noise, exposures, sparse points).
     #[serde(default = "default_seed")]
     pub seed: u64,
