@@ -17,7 +17,8 @@ use thiserror::Error;
 
 use crate::axes::{dominant_axes, AxesConfig, AxesError, DominantAxes};
 use crate::hypotheses::{
-    plane_hypotheses, HypothesesConfig, HypothesesError, HypothesesInput, PlaneHypothesis,
+    plane_hypotheses, sweep_hypotheses, HypothesesConfig, HypothesesError, HypothesesInput,
+    PlaneHypothesis,
 };
 use crate::io::atomic::write_atomic;
 use crate::io::dense::{write_dense_map_path, DenseError};
@@ -252,8 +253,16 @@ pub struct Prepared {
     pub oriented: OrientedCloud,
     /// Dominant directions.
     pub axes: DominantAxes,
-    /// Plane hypotheses; a planemap label `l` is hypothesis `l`.
+    /// Plane hypotheses; a planemap label `l` is hypothesis `l`. The sparse-point ones come
+    /// first, then those of the photo-consistency sweep.
     pub hypotheses: Vec<PlaneHypothesis>,
+    /// How many of `hypotheses` (the last ones) come from the photo-consistency sweep
+    /// ([`crate::hypotheses::sweep_hypotheses`]); they are offered in every view where they
+    /// lie in front of the camera, since few sparse points support them.
+    pub sweep_hypotheses: usize,
+    /// The undistorted images of all views, when a stage needs the neighbours' images (the
+    /// sweep or the photo-consistency data term); `None` otherwise.
+    pub images: Option<Vec<ImageF32>>,
     /// Seconds spent per stage: scale + normals, axes, hypotheses.
     pub seconds: [f64; 3],
 }
@@ -280,16 +289,33 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
     let axes = dominant_axes(&oriented, &cfg.axes)?;
     let t_axes = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let hypotheses = plane_hypotheses(
-        &HypothesesInput {
-            positions: &scene.cloud.positions,
-            normals: &oriented.normals,
-            confidence: &oriented.confidence,
-            axes: &axes,
-            scale,
-        },
-        &cfg.hypotheses,
-    )?;
+    let input = HypothesesInput {
+        positions: &scene.cloud.positions,
+        normals: &oriented.normals,
+        confidence: &oriented.confidence,
+        axes: &axes,
+        scale,
+    };
+    let mut hypotheses = plane_hypotheses(&input, &cfg.hypotheses)?;
+    // Images are loaded once for all views when a stage matches views against each other.
+    let wants_images = cfg.hypotheses.sweep.enabled || cfg.planemap.photo_weight > 0.0;
+    let images = if wants_images && scene.views.iter().all(|v| v.image_path.is_some()) {
+        Some(
+            scene
+                .views
+                .par_iter()
+                .map(|v| v.load_undistorted_image())
+                .collect::<Result<Vec<_>, _>>()?,
+        )
+    } else {
+        None
+    };
+    let mut num_sweep = 0;
+    if let (true, Some(imgs)) = (cfg.hypotheses.sweep.enabled, &images) {
+        let (extra, _) = sweep_hypotheses(scene, imgs, &input, &hypotheses, &cfg.hypotheses)?;
+        num_sweep = extra.len();
+        hypotheses.extend(extra);
+    }
     if hypotheses.is_empty() {
         return Err(PipelineError::Scene(format!(
             "no plane hypothesis has enough support ({} points, {} dominant directions)",
@@ -302,6 +328,8 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
         oriented,
         axes,
         hypotheses,
+        sweep_hypotheses: num_sweep,
+        images,
         seconds: [t_normals, t_axes, t.elapsed().as_secs_f64()],
     })
 }
@@ -342,7 +370,12 @@ pub fn label_view(
 ) -> Result<ViewPlanemap, PipelineError> {
     let view = &scene.views[view_index];
     let planes: Vec<_> = prepared.hypotheses.iter().map(|h| h.plane).collect();
+    let photo_planes: Vec<u32> = (prepared.hypotheses.len() - prepared.sweep_hypotheses
+        ..prepared.hypotheses.len())
+        .map(|i| i as u32)
+        .collect();
     let inputs = ViewInputs {
+        photo_planes: &photo_planes,
         view_index,
         views: &scene.views,
         image,
@@ -360,7 +393,11 @@ pub fn label_view(
         source,
     };
     let t = Instant::now();
-    let energy = PlanemapEnergy::build(&inputs, &cfg.planemap).map_err(planemap_err)?;
+    let mut energy = PlanemapEnergy::build(&inputs, &cfg.planemap).map_err(planemap_err)?;
+    if let (true, Some(images)) = (cfg.planemap.photo_weight > 0.0, &prepared.images) {
+        add_photo_term(scene, view_index, image, images, &mut energy, &cfg.planemap)
+            .map_err(planemap_err)?;
+    }
     let t_build = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let num_labels = energy.num_labels();
@@ -417,6 +454,38 @@ pub fn label_view(
         cycles: solution.cycles.len(),
         seconds: (t_build, t_solve),
     })
+}
+
+/// Adds the photo-consistency data term `photo_weight · c_p(h)` to a view's energy: the NCC
+/// cost volume of the view's labels against its best neighbours.
+fn add_photo_term(
+    scene: &Scene,
+    view_index: usize,
+    image: &ImageF32,
+    images: &[ImageF32],
+    energy: &mut PlanemapEnergy,
+    cfg: &PlanemapConfig,
+) -> Result<(), PlanemapError> {
+    let photo_err = |e: crate::photo::PhotoError| PlanemapError::Input(format!("photo term: {e}"));
+    let nb = crate::photo::select_neighbours(scene, view_index, cfg.photo_neighbours)
+        .map_err(photo_err)?;
+    if nb.is_empty() {
+        return Ok(());
+    }
+    let neighbours: Vec<_> = nb.iter().map(|&j| (&scene.views[j], &images[j])).collect();
+    let volume = crate::photo::plane_cost_volume(
+        &scene.views[view_index],
+        image,
+        &neighbours,
+        &energy.planes,
+        &crate::photo::PhotoConfig::default(),
+    )
+    .map_err(photo_err)?;
+    let w = cfg.photo_weight as f32;
+    for (u, c) in energy.unary.iter_mut().zip(&volume.costs) {
+        *u += w * c;
+    }
+    Ok(())
 }
 
 /// Which views to process and how.
