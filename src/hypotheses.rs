@@ -963,6 +963,114 @@ mod tests {
         }
     }
 
+    /// A textured room corner (walls x = 0, y = 0, floor z = 0) seen by the corner views;
+    /// sparse points only on the floor and the wall y = 0 (plus 3 on x = 0, below any
+    /// support threshold): the sweep must propose x = 0, and nothing the points already give.
+    #[test]
+    fn sweep_proposes_the_textured_wall_the_points_miss() {
+        use crate::planemap::testutil::{cast, corner_views};
+        let views = corner_views();
+        let texture = |p: &Vector3<f64>, face: usize| -> f32 {
+            // Random grey per 0.15 m cell of the face's two in-plane coordinates.
+            let (a, b) = match face {
+                0 => (p.y, p.z),
+                1 => (p.x, p.z),
+                _ => (p.x, p.y),
+            };
+            let (i, j) = ((a / 0.15).floor() as i64, (b / 0.15).floor() as i64);
+            let h = (i.wrapping_mul(73_856_093)
+                ^ j.wrapping_mul(19_349_663)
+                ^ face as i64 * 83_492_791)
+                .rem_euclid(1000);
+            0.2 + 0.6 * h as f32 / 1000.0
+        };
+        let images: Vec<ImageF32> = views
+            .iter()
+            .map(|v| {
+                let (w, h) = (v.camera.width, v.camera.height);
+                let mut img = ImageF32::filled(w, h, 1, 0.0);
+                for y in 0..h {
+                    for x in 0..w {
+                        let (o, d) = v.ray(&nalgebra::Vector2::new(x as f64 + 0.5, y as f64 + 0.5));
+                        img.pixel_mut(x, y)[0] = cast(&o, &d).map_or(0.05, |(f, p)| texture(&p, f));
+                    }
+                }
+                img
+            })
+            .collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut positions = Vec::new();
+        for (face, count) in [(1usize, 150), (2, 150), (0, 3)] {
+            for _ in 0..count {
+                let mut p = Vector3::zeros();
+                for k in 0..3 {
+                    if k != face {
+                        p[k] = rng.random_range(0.1..3.9);
+                    }
+                }
+                positions.push(p);
+            }
+        }
+        let n = positions.len();
+        let mut normals = vec![Vector3::z(); n];
+        for (i, nr) in normals.iter_mut().enumerate().take(150) {
+            let _ = i;
+            *nr = Vector3::y();
+        }
+        normals[300..].fill(Vector3::x());
+        let confidence = vec![1.0; n];
+        let scene = Scene {
+            views,
+            cloud: crate::scene::SparseCloud {
+                tracks: positions.iter().map(|_| vec![0, 1, 2]).collect(),
+                colors: vec![[128; 3]; n],
+                errors: vec![0.5; n],
+                confidence: confidence.clone(),
+                normals: None,
+                positions: positions.clone(),
+            },
+        };
+        let axes = manual_axes(vec![Vector3::x(), Vector3::y(), Vector3::z()]);
+        let input = HypothesesInput {
+            positions: &positions,
+            normals: &normals,
+            confidence: &confidence,
+            axes: &axes,
+            scale: 0.02,
+        };
+        let cfg = HypothesesConfig {
+            sweep: SweepHypothesesConfig {
+                max_planes_per_axis: 60,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let existing = plane_hypotheses(&input, &cfg).unwrap();
+        assert!(existing.iter().all(|h| h.axis != Some(0)), "{existing:?}");
+        let (extra, votes) = sweep_hypotheses(&scene, &images, &input, &existing, &cfg).unwrap();
+        assert_eq!(votes.step.len(), 3);
+        let wall: Vec<_> = extra.iter().filter(|h| h.axis == Some(0)).collect();
+        assert_eq!(wall.len(), 1, "{extra:?}");
+        assert!(
+            wall[0].plane.offset.abs() < 2.0 * votes.step[0],
+            "{:?}",
+            wall[0]
+        );
+        assert_eq!(wall[0].id as usize, existing.len());
+        // Nothing within the merge tolerance of the floor or the wall y = 0.
+        for h in &extra {
+            for e in &existing {
+                let same = h.plane.normal.dot(&e.plane.normal).abs() > 0.99;
+                assert!(
+                    !same || (h.plane.offset - e.plane.offset).abs() > 0.02,
+                    "{h:?}"
+                );
+            }
+        }
+        // Bad input: image count.
+        assert!(sweep_hypotheses(&scene, &images[..2], &input, &existing, &cfg).is_err());
+    }
+
     fn manual_axes(dirs: Vec<Vector3<f64>>) -> DominantAxes {
         let m = dirs.len();
         DominantAxes {

@@ -15,7 +15,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::axes::{dominant_axes, AxesConfig, AxesError, DominantAxes};
+use crate::axes::{
+    dominant_axes, refine_axes_from_planes, AxesConfig, AxesError, AxisPlane, DominantAxes,
+};
 use crate::hypotheses::{
     plane_hypotheses, sweep_hypotheses, HypothesesConfig, HypothesesError, HypothesesInput,
     PlaneHypothesis,
@@ -286,17 +288,49 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
     let oriented = estimate_normals_with_scale(scene, scale, &cfg.normals)?;
     let t_normals = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let axes = dominant_axes(&oriented, &cfg.axes)?;
+    let mut axes = dominant_axes(&oriented, &cfg.axes)?;
     let t_axes = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let input = HypothesesInput {
-        positions: &scene.cloud.positions,
-        normals: &oriented.normals,
-        confidence: &oriented.confidence,
-        axes: &axes,
-        scale,
-    };
-    let mut hypotheses = plane_hypotheses(&input, &cfg.hypotheses)?;
+    fn hyp_input<'a>(
+        scene: &'a Scene,
+        oriented: &'a OrientedCloud,
+        axes: &'a DominantAxes,
+        scale: f64,
+    ) -> HypothesesInput<'a> {
+        HypothesesInput {
+            positions: &scene.cloud.positions,
+            normals: &oriented.normals,
+            confidence: &oriented.confidence,
+            axes,
+            scale,
+        }
+    }
+    let mut hypotheses =
+        plane_hypotheses(&hyp_input(scene, &oriented, &axes, scale), &cfg.hypotheses)?;
+    // Axis refit from the points on the hypotheses, then hypotheses along the refit axes.
+    for _ in 0..cfg.axes.refine.iterations {
+        let planes: Vec<AxisPlane> = hypotheses
+            .iter()
+            .filter_map(|h| {
+                let axis = h.axis?;
+                let sign = h.plane.normal.dot(&axes.directions[axis]).signum();
+                Some(AxisPlane {
+                    axis,
+                    offset: sign * h.plane.offset,
+                })
+            })
+            .collect();
+        axes = refine_axes_from_planes(
+            &axes,
+            &scene.cloud.positions,
+            &oriented.normals,
+            &planes,
+            scale,
+            &cfg.axes.refine,
+        );
+        hypotheses = plane_hypotheses(&hyp_input(scene, &oriented, &axes, scale), &cfg.hypotheses)?;
+    }
+    let input = hyp_input(scene, &oriented, &axes, scale);
     // Images are loaded once for all views when a stage matches views against each other.
     let wants_images = cfg.hypotheses.sweep.enabled || cfg.planemap.photo_weight > 0.0;
     let images = if wants_images && scene.views.iter().all(|v| v.image_path.is_some()) {

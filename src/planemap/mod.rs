@@ -130,7 +130,7 @@ impl Default for PlanemapConfig {
             min_support: 6,
             min_support_in_frustum: 20,
             max_labels: 0,
-            photo_weight: 0.0,
+            photo_weight: 0.3,
             photo_neighbours: 3,
         }
     }
