@@ -391,6 +391,10 @@ pub struct SweepHypothesesConfig {
     pub neighbours: usize,
     /// Sweep on images reduced by this integer factor (box filter); 1 = full resolution.
     pub downsample: u32,
+    /// ... or by more, so that the reduced images are at most this wide (0 = no limit):
+    /// the sweep's cost grows with the pixel count, and 160 pixels across were enough on
+    /// every scene. At 640×480 this means 4×.
+    pub max_width: u32,
     /// A pixel votes only if its best cost (NCC cost in [0, 1]) is at most this.
     pub max_cost: f32,
     /// ... and the next best plane (another axis, or the same axis more than two steps
@@ -416,6 +420,7 @@ impl Default for SweepHypothesesConfig {
             max_planes_per_axis: 160,
             neighbours: 3,
             downsample: 2,
+            max_width: 160,
             max_cost: 0.25,
             min_margin: 0.1,
             texture_threshold: 0.02,
@@ -554,7 +559,12 @@ pub fn sweep_hypotheses(
         .iter()
         .map(|d| d.normalize())
         .collect();
-    let f = sc.downsample;
+    let widest_image = images.iter().map(|i| i.width).max().unwrap_or(1);
+    let f = if sc.max_width > 0 {
+        sc.downsample.max(widest_image.div_ceil(sc.max_width))
+    } else {
+        sc.downsample
+    };
     // Global offset grid per axis: union of the views' frustum ranges, step ≥ step_r·R.
     let mut ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); nax];
     let mut widest = vec![0.0f64; nax];
