@@ -130,13 +130,17 @@ impl AxesConfig {
     /// Checks the fields.
     pub fn validate(&self) -> Result<(), AxesError> {
         let bad = |m: String| Err(AxesError::Config(m));
-        if !(self.refine.inlier_r > 0.0 && self.refine.inlier_r.is_finite())
-            || !(self.refine.max_change_deg >= 0.0 && self.refine.max_change_deg <= 90.0)
-            || !(self.refine.normal_tolerance_deg > 0.0 && self.refine.normal_tolerance_deg < 90.0)
-        {
+        let r = &self.refine;
+        let refine_ok = r.inlier_r > 0.0
+            && r.inlier_r.is_finite()
+            && (0.0..=90.0).contains(&r.max_change_deg)
+            && r.normal_tolerance_deg > 0.0
+            && r.normal_tolerance_deg < 90.0;
+        if !refine_ok {
             return bad(format!(
-                "refine.inlier_r = {} must be > 0 and refine.max_change_deg = {} in [0, 90]",
-                self.refine.inlier_r, self.refine.max_change_deg
+                "refine: inlier_r = {} must be > 0, max_change_deg = {} in [0, 90], \
+                 normal_tolerance_deg = {} in (0, 90)",
+                r.inlier_r, r.max_change_deg, r.normal_tolerance_deg
             ));
         }
         if self.num_bins < 10 {
@@ -564,6 +568,8 @@ pub struct AxisPlane {
 /// `normal_tolerance_deg` of the axis. Axes with fewer than 3 inliers, or whose refit moves
 /// more than `max_change_deg`, keep their direction. Returns the refit axes (extra
 /// directions unchanged, pairwise angles recomputed).
+// `k` indexes the axes and the per-axis RMS alike.
+#[allow(clippy::needless_range_loop)]
 pub fn refine_axes_from_planes(
     axes: &DominantAxes,
     positions: &[Vector3<f64>],

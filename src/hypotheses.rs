@@ -538,6 +538,8 @@ pub struct SweepVotes {
 /// [`SweepHypothesesConfig`]): returns the new planes (not within the merge tolerance of
 /// `existing`, ids continuing after them, `support` = sparse points within the bandwidth)
 /// and the votes. `scene` must be undistorted and `images[i]` view i's image.
+// Bins index several parallel per-axis arrays (votes, totals, views): ranges read clearer.
+#[allow(clippy::needless_range_loop)]
 pub fn sweep_hypotheses(
     scene: &Scene,
     images: &[ImageF32],
@@ -990,7 +992,7 @@ mod tests {
             let (i, j) = ((a / 0.15).floor() as i64, (b / 0.15).floor() as i64);
             let h = (i.wrapping_mul(73_856_093)
                 ^ j.wrapping_mul(19_349_663)
-                ^ face as i64 * 83_492_791)
+                ^ (face as i64 * 83_492_791))
                 .rem_euclid(1000);
             0.2 + 0.6 * h as f32 / 1000.0
         };
