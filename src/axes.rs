@@ -14,7 +14,7 @@
 
 use std::f64::consts::PI;
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, Matrix3, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -98,6 +98,9 @@ pub struct AxesConfig {
     pub extra_min_separation_deg: f64,
     /// Behaviour when fewer than three Manhattan directions exist.
     pub on_missing: MissingAxes,
+    /// Refit of the axes from the points on their plane hypotheses (run by the pipeline
+    /// after the first hypotheses, [`refine_axes_from_planes`]).
+    pub refine: AxisRefineConfig,
 }
 
 impl Default for AxesConfig {
@@ -118,6 +121,7 @@ impl Default for AxesConfig {
             extra_min_support_fraction: 0.05,
             extra_min_separation_deg: 20.0,
             on_missing: MissingAxes::Warn,
+            refine: AxisRefineConfig::default(),
         }
     }
 }
@@ -126,6 +130,19 @@ impl AxesConfig {
     /// Checks the fields.
     pub fn validate(&self) -> Result<(), AxesError> {
         let bad = |m: String| Err(AxesError::Config(m));
+        let r = &self.refine;
+        let refine_ok = r.inlier_r > 0.0
+            && r.inlier_r.is_finite()
+            && (0.0..=90.0).contains(&r.max_change_deg)
+            && r.normal_tolerance_deg > 0.0
+            && r.normal_tolerance_deg < 90.0;
+        if !refine_ok {
+            return bad(format!(
+                "refine: inlier_r = {} must be > 0, max_change_deg = {} in [0, 90], \
+                 normal_tolerance_deg = {} in (0, 90)",
+                r.inlier_r, r.max_change_deg, r.normal_tolerance_deg
+            ));
+        }
         if self.num_bins < 10 {
             return bad(format!("num_bins = {} must be ≥ 10", self.num_bins));
         }
@@ -500,6 +517,160 @@ pub fn dominant_axes(
     })
 }
 
+/// Settings of [`refine_axes_from_planes`]: a second estimate of each Manhattan axis from
+/// the *positions* of the points lying on its plane hypotheses, which is far less noisy
+/// than the PCA normals the histogram sees (small adjacent faces, stair treads and risers,
+/// smear the normals and tilt an axis by several degrees).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct AxisRefineConfig {
+    /// Refit rounds (each: hypotheses → axes → hypotheses); 0 = off.
+    pub iterations: usize,
+    /// A point is an inlier of a plane if within this many R of it...
+    pub inlier_r: f64,
+    /// ... and its normal within this many degrees of the axis: tighter than the
+    /// hypotheses' tolerance, because points on an edge between two faces (a stair nosing)
+    /// have smeared normals and, on the wrong face, tilt the fit.
+    pub normal_tolerance_deg: f64,
+    /// A refit direction is accepted only if it moves by at most this many degrees.
+    pub max_change_deg: f64,
+    /// After the refit, make the axes orthogonal: the axis whose inliers fit their planes
+    /// best (least RMS distance) is kept, the next best is made orthogonal to it, the third
+    /// is their cross product.
+    pub orthogonalize: bool,
+}
+
+impl Default for AxisRefineConfig {
+    fn default() -> Self {
+        AxisRefineConfig {
+            iterations: 2,
+            inlier_r: 2.0,
+            normal_tolerance_deg: 10.0,
+            max_change_deg: 20.0,
+            orthogonalize: false,
+        }
+    }
+}
+
+/// One plane for [`refine_axes_from_planes`]: its axis index and offset along it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisPlane {
+    /// Index into `DominantAxes::directions`.
+    pub axis: usize,
+    /// Offset `d_axis · X` of the plane (with the direction as stored in the axes).
+    pub offset: f64,
+}
+
+/// Refits each Manhattan axis as the direction of least spread of the points on its planes,
+/// each plane's points centred on their own mean (one normal shared by parallel planes,
+/// free offsets: the pooled scatter's smallest eigenvector). A point joins the plane of
+/// its axis nearest to it if within `inlier_r · scale` and its normal is within
+/// `normal_tolerance_deg` of the axis. Axes with fewer than 3 inliers, or whose refit moves
+/// more than `max_change_deg`, keep their direction. Returns the refit axes (extra
+/// directions unchanged, pairwise angles recomputed).
+// `k` indexes the axes and the per-axis RMS alike.
+#[allow(clippy::needless_range_loop)]
+pub fn refine_axes_from_planes(
+    axes: &DominantAxes,
+    positions: &[Vector3<f64>],
+    normals: &[Vector3<f64>],
+    planes: &[AxisPlane],
+    scale: f64,
+    cfg: &AxisRefineConfig,
+) -> DominantAxes {
+    let cos_normal = cfg.normal_tolerance_deg.to_radians().cos();
+    type Stats = (usize, Vector3<f64>, Matrix3<f64>);
+    let mut out = axes.clone();
+    let m = axes.num_manhattan.min(axes.directions.len());
+    let band = cfg.inlier_r * scale;
+    // Per axis: RMS distance of the inliers to their planes after the refit.
+    let mut rms = vec![f64::INFINITY; m];
+    for k in 0..m {
+        let d = axes.directions[k].normalize();
+        let mut offs: Vec<f64> = planes
+            .iter()
+            .filter(|p| p.axis == k)
+            .map(|p| p.offset)
+            .collect();
+        offs.sort_unstable_by(f64::total_cmp);
+        if offs.is_empty() {
+            continue;
+        }
+        // Per plane: count, sum and sum of outer products of its inliers (positions are
+        // taken relative to the first point to keep the sums well conditioned).
+        let origin = positions.first().copied().unwrap_or_else(Vector3::zeros);
+        let mut stats: Vec<Stats> = vec![(0, Vector3::zeros(), Matrix3::zeros()); offs.len()];
+        for (p, n) in positions.iter().zip(normals) {
+            if n.dot(&d).abs() < cos_normal {
+                continue;
+            }
+            let o = d.dot(p);
+            let i = offs.partition_point(|&x| x < o);
+            let nearest = [i.wrapping_sub(1), i]
+                .into_iter()
+                .filter(|&j| j < offs.len())
+                .min_by(|&a, &b| (offs[a] - o).abs().total_cmp(&(offs[b] - o).abs()));
+            if let Some(j) = nearest {
+                if (offs[j] - o).abs() <= band {
+                    let q = p - origin;
+                    let s = &mut stats[j];
+                    s.0 += 1;
+                    s.1 += q;
+                    s.2 += q * q.transpose();
+                }
+            }
+        }
+        let mut scatter = Matrix3::<f64>::zeros();
+        let mut count = 0;
+        for (c, sum, outer) in &stats {
+            if *c >= 3 {
+                let mean = sum / *c as f64;
+                scatter += outer - mean * mean.transpose() * *c as f64;
+                count += c;
+            }
+        }
+        if count < 3 {
+            continue;
+        }
+        let eig = scatter.symmetric_eigen();
+        let imin = (0..3)
+            .min_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]))
+            .unwrap_or(0);
+        rms[k] = (eig.eigenvalues[imin].max(0.0) / count as f64).sqrt();
+        let mut e: Vector3<f64> = eig.eigenvectors.column(imin).into_owned();
+        if e.dot(&d) < 0.0 {
+            e = -e;
+        }
+        if e.iter().all(|v| v.is_finite()) && axial_angle_deg(&e, &d) <= cfg.max_change_deg {
+            out.directions[k] = e.normalize();
+        }
+    }
+    if cfg.orthogonalize && m == 3 {
+        let mut order: Vec<usize> = (0..3).collect();
+        order.sort_by(|&a, &b| rms[a].total_cmp(&rms[b]).then(a.cmp(&b)));
+        let a = out.directions[order[0]];
+        let b = out.directions[order[1]];
+        let b2 = (b - a * a.dot(&b)).normalize();
+        let mut c = a.cross(&b2);
+        if c.dot(&out.directions[order[2]]) < 0.0 {
+            c = -c;
+        }
+        out.directions[order[1]] = b2;
+        out.directions[order[2]] = c;
+    }
+    out.pairwise_angles_deg.clear();
+    for i in 0..out.directions.len() {
+        for j in i + 1..out.directions.len() {
+            out.pairwise_angles_deg.push((
+                i,
+                j,
+                axial_angle_deg(&out.directions[i], &out.directions[j]),
+            ));
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -543,6 +714,107 @@ pub(crate) mod tests {
             .iter()
             .map(|d| axial_angle_deg(d, truth))
             .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Parallel planes (x = 0, 1; y = 0, 2; z = 0, 0.5, 1) sampled with noise; the axes
+    /// start tilted by 6° and smeared normals: the refit recovers the true axes.
+    #[test]
+    fn refit_from_plane_points_removes_a_tilt() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        let planes_true = [
+            (0usize, 0.0),
+            (0, 1.0),
+            (1, 0.0),
+            (1, 2.0),
+            (2, 0.0),
+            (2, 0.5),
+            (2, 1.0),
+        ];
+        for &(axis, off) in &planes_true {
+            for _ in 0..200 {
+                let mut p = Vector3::new(
+                    rng.random_range(0.0..1.0),
+                    rng.random_range(0.0..2.0),
+                    rng.random_range(0.0..1.0),
+                );
+                p[axis] = off + rng.random_range(-0.002..0.002);
+                positions.push(p);
+                let mut n = Vector3::zeros();
+                n[axis] = 1.0;
+                normals.push(n);
+            }
+        }
+        let tilt = 6.0f64.to_radians();
+        let z_tilted = Vector3::new(0.0, -tilt.sin(), tilt.cos());
+        let axes = DominantAxes {
+            directions: vec![Vector3::x(), Vector3::y(), z_tilted],
+            support: vec![0; 3],
+            pairwise_angles_deg: vec![],
+            num_manhattan: 3,
+            warnings: vec![],
+        };
+        // The tilted axis' hypotheses: the mean offsets of the true planes along it.
+        let planes: Vec<AxisPlane> = planes_true
+            .iter()
+            .map(|&(axis, off)| AxisPlane {
+                axis,
+                offset: if axis == 2 {
+                    off * tilt.cos() - 1.0 * tilt.sin()
+                } else {
+                    off
+                },
+            })
+            .collect();
+        let cfg = AxisRefineConfig {
+            inlier_r: 3.0,
+            normal_tolerance_deg: 10.0,
+            ..Default::default()
+        };
+        let mut refit = axes.clone();
+        for _ in 0..4 {
+            // Offsets along the current axis: the mean over each true plane's points.
+            let d = refit.directions[2];
+            let planes: Vec<AxisPlane> = planes_true
+                .iter()
+                .enumerate()
+                .map(|(i, &(axis, off))| {
+                    if axis != 2 {
+                        return AxisPlane { axis, offset: off };
+                    }
+                    let pts = &positions[i * 200..(i + 1) * 200];
+                    AxisPlane {
+                        axis,
+                        offset: pts.iter().map(|p| d.dot(p)).sum::<f64>() / 200.0,
+                    }
+                })
+                .collect();
+            refit = refine_axes_from_planes(&refit, &positions, &normals, &planes, 0.05, &cfg);
+        }
+        let err = axial_angle_deg(&refit.directions[2], &Vector3::z());
+        assert!(err < 0.5, "z still {err}° off: {:?}", refit.directions[2]);
+        assert!(err < 0.5 * 6.0);
+        // One refit from the tilted start already moves toward the truth.
+        let once = refine_axes_from_planes(&axes, &positions, &normals, &planes, 0.05, &cfg);
+        assert!(axial_angle_deg(&once.directions[2], &Vector3::z()) < 6.0);
+        // Orthogonalised: exactly perpendicular axes.
+        let ortho = refine_axes_from_planes(
+            &refit,
+            &positions,
+            &normals,
+            &planes,
+            0.05,
+            &AxisRefineConfig {
+                orthogonalize: true,
+                ..cfg
+            },
+        );
+        for &(_, _, a) in &ortho.pairwise_angles_deg {
+            assert!((a - 90.0).abs() < 1e-9, "{a}");
+        }
+        assert_eq!(ortho.pairwise_angles_deg.len(), 3);
     }
 
     #[test]

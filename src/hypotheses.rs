@@ -16,7 +16,11 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::axes::DominantAxes;
+use crate::baseline::texture_mask;
 use crate::geometry::Plane;
+use crate::photo::{plane_cost_volume, select_neighbours};
+use crate::raster::ImageF32;
+use crate::scene::{Scene, View};
 
 /// Errors of the plane-hypothesis stage.
 #[derive(Debug, Error, PartialEq)]
@@ -64,6 +68,8 @@ pub struct HypothesesConfig {
     pub min_confidence: f64,
     /// Mean-shift iteration limit per seed.
     pub max_iterations: usize,
+    /// The photo-consistency sweep proposing planes the points are too few for.
+    pub sweep: SweepHypothesesConfig,
 }
 
 impl Default for HypothesesConfig {
@@ -78,6 +84,7 @@ impl Default for HypothesesConfig {
             merge_offset_r: 1.0,
             min_confidence: 1e-3,
             max_iterations: 100,
+            sweep: SweepHypothesesConfig::default(),
         }
     }
 }
@@ -115,7 +122,7 @@ impl HypothesesConfig {
         if self.max_iterations == 0 {
             return bad("max_iterations must be ≥ 1".into());
         }
-        Ok(())
+        self.sweep.validate()
     }
 
     /// The support threshold used for a cloud of `n` points.
@@ -360,6 +367,394 @@ pub fn plane_hypotheses(
     Ok(out)
 }
 
+// ---------------------------------------------------------------------------------------
+// Photo-consistency sweep hypotheses: planes the sparse points are too few to propose.
+// ---------------------------------------------------------------------------------------
+
+/// Settings of [`sweep_hypotheses`], a second source of plane hypotheses for planes with
+/// too few sparse points (a plain wall whose only texture is a door seen by few views).
+///
+/// Every view sweeps planes along each Manhattan axis (Gallup et al. 2007) at offsets
+/// spaced `step_r · R` apart; each textured pixel votes for the (axis, offset) of its
+/// clearly best photo-consistent plane; an offset with enough votes from enough views,
+/// not already a hypothesis, becomes one.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SweepHypothesesConfig {
+    /// Run the sweep (needs the images).
+    pub enabled: bool,
+    /// Offset step of the sweep in units of R (full-resolution R).
+    pub step_r: f64,
+    /// At most this many offsets per axis and view; the step grows for larger ranges.
+    pub max_planes_per_axis: usize,
+    /// Neighbour views matched against each view ([`crate::photo::select_neighbours`]).
+    pub neighbours: usize,
+    /// Sweep on images reduced by this integer factor (box filter); 1 = full resolution.
+    pub downsample: u32,
+    /// ... or by more, so that the reduced images are at most this wide (0 = no limit):
+    /// the sweep's cost grows with the pixel count, and 160 pixels across were enough on
+    /// every scene. At 640×480 this means 4×.
+    pub max_width: u32,
+    /// A pixel votes only if its best cost (NCC cost in [0, 1]) is at most this.
+    pub max_cost: f32,
+    /// ... and the next best plane (another axis, or the same axis more than two steps
+    /// away) costs at least this much more.
+    pub min_margin: f32,
+    /// ... and its grey-level standard deviation over the matching window is at least this.
+    pub texture_threshold: f32,
+    /// An offset becomes a hypothesis with at least this many votes in total, as a fraction
+    /// of one (downsampled) view's pixels.
+    pub min_vote_fraction: f64,
+    /// ... from at least this many views (each contributing at least a tenth of the votes
+    /// threshold).
+    pub min_views: usize,
+    /// Photo-consistency measure and window.
+    pub photo: crate::photo::PhotoConfig,
+}
+
+impl Default for SweepHypothesesConfig {
+    fn default() -> Self {
+        SweepHypothesesConfig {
+            enabled: true,
+            step_r: 2.0,
+            max_planes_per_axis: 160,
+            neighbours: 3,
+            downsample: 2,
+            max_width: 160,
+            max_cost: 0.25,
+            min_margin: 0.1,
+            texture_threshold: 0.02,
+            min_vote_fraction: 0.004,
+            min_views: 2,
+            photo: crate::photo::PhotoConfig {
+                window_radius: 2,
+                ..Default::default()
+            },
+        }
+    }
+}
+
+impl SweepHypothesesConfig {
+    /// Checks the fields.
+    pub fn validate(&self) -> Result<(), HypothesesError> {
+        let bad = |m: String| Err(HypothesesError::Config(format!("sweep.{m}")));
+        if !(self.step_r > 0.0 && self.step_r.is_finite()) {
+            return bad(format!("step_r = {} must be positive", self.step_r));
+        }
+        if self.max_planes_per_axis < 2 || self.neighbours == 0 || self.min_views == 0 {
+            return bad("max_planes_per_axis ≥ 2, neighbours ≥ 1, min_views ≥ 1 expected".into());
+        }
+        if !(1..=8).contains(&self.downsample) {
+            return bad(format!("downsample = {} must be in 1..=8", self.downsample));
+        }
+        for (name, v) in [
+            ("max_cost", self.max_cost),
+            ("min_margin", self.min_margin),
+            ("texture_threshold", self.texture_threshold),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return bad(format!("{name} = {v} must be in [0, 1]"));
+            }
+        }
+        if !(self.min_vote_fraction > 0.0 && self.min_vote_fraction <= 1.0) {
+            return bad(format!(
+                "min_vote_fraction = {} must be in (0, 1]",
+                self.min_vote_fraction
+            ));
+        }
+        self.photo
+            .validate()
+            .map_err(|e| HypothesesError::Config(format!("sweep.photo: {e}")))
+    }
+}
+
+/// Box-filter downsampling by an integer factor (the rescaled camera's rays through the
+/// new pixel centres pass through the centres of the averaged blocks).
+fn downsample_image(img: &ImageF32, f: u32) -> ImageF32 {
+    if f == 1 {
+        return img.clone();
+    }
+    let (w, h, c) = (img.width / f, img.height / f, img.channels as usize);
+    let mut out = ImageF32::filled(w, h, img.channels, 0.0);
+    let norm = 1.0 / (f * f) as f32;
+    for y in 0..h {
+        for x in 0..w {
+            let o = out.index(x, y);
+            for dy in 0..f {
+                for dx in 0..f {
+                    let i = img.index(x * f + dx, y * f + dy);
+                    for k in 0..c {
+                        out.data[o + k] += img.data[i + k] * norm;
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The range of `d·X` over the view's frustum between the 5th and 95th percentile depth of
+/// the points it sees (widened ×0.7 / ×1.5); `None` if it sees fewer than 3 points.
+fn frustum_offset_range(scene: &Scene, view_index: usize, d: &Vector3<f64>) -> Option<(f64, f64)> {
+    let view = &scene.views[view_index];
+    let mut depths: Vec<f64> = scene
+        .cloud
+        .positions
+        .iter()
+        .zip(&scene.cloud.tracks)
+        .filter(|(_, t)| t.contains(&(view_index as u32)))
+        .filter_map(|(p, _)| view.project(p).map(|(_, z)| z))
+        .filter(|z| z.is_finite() && *z > 0.0)
+        .collect();
+    if depths.len() < 3 {
+        return None;
+    }
+    depths.sort_unstable_by(f64::total_cmp);
+    let q = |f: f64| depths[((depths.len() - 1) as f64 * f).round() as usize];
+    let (near, far) = (0.7 * q(0.05), 1.5 * q(0.95));
+    let (w, h) = (view.camera.width as f64, view.camera.height as f64);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for xy in [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h), (0.5 * w, 0.5 * h)] {
+        let (o, dir) = view.ray(&nalgebra::Vector2::new(xy.0, xy.1));
+        for z in [near, far] {
+            let v = d.dot(&(o + dir * z));
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    (hi > lo).then_some((lo, hi))
+}
+
+/// What [`sweep_hypotheses`] found, per axis, for reports and tests.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepVotes {
+    /// Offset step per Manhattan axis (world units).
+    pub step: Vec<f64>,
+    /// Per axis: (offset of the bin, total votes, views voting) for every bin with votes.
+    pub bins: Vec<Vec<(f64, u32, u32)>>,
+}
+
+/// Plane hypotheses from a photo-consistency sweep along the Manhattan axes (see
+/// [`SweepHypothesesConfig`]): returns the new planes (not within the merge tolerance of
+/// `existing`, ids continuing after them, `support` = sparse points within the bandwidth)
+/// and the votes. `scene` must be undistorted and `images[i]` view i's image.
+// Bins index several parallel per-axis arrays (votes, totals, views): ranges read clearer.
+#[allow(clippy::needless_range_loop)]
+pub fn sweep_hypotheses(
+    scene: &Scene,
+    images: &[ImageF32],
+    input: &HypothesesInput<'_>,
+    existing: &[PlaneHypothesis],
+    config: &HypothesesConfig,
+) -> Result<(Vec<PlaneHypothesis>, SweepVotes), HypothesesError> {
+    let sc = &config.sweep;
+    sc.validate()?;
+    if images.len() != scene.views.len() {
+        return Err(HypothesesError::Input(format!(
+            "{} images for {} views",
+            images.len(),
+            scene.views.len()
+        )));
+    }
+    let nax = input.axes.num_manhattan.min(input.axes.directions.len());
+    let dirs: Vec<Vector3<f64>> = input.axes.directions[..nax]
+        .iter()
+        .map(|d| d.normalize())
+        .collect();
+    let widest_image = images.iter().map(|i| i.width).max().unwrap_or(1);
+    let f = if sc.max_width > 0 {
+        sc.downsample.max(widest_image.div_ceil(sc.max_width))
+    } else {
+        sc.downsample
+    };
+    // Global offset grid per axis: union of the views' frustum ranges, step ≥ step_r·R.
+    let mut ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); nax];
+    let mut widest = vec![0.0f64; nax];
+    for v in 0..scene.views.len() {
+        for (k, d) in dirs.iter().enumerate() {
+            if let Some((lo, hi)) = frustum_offset_range(scene, v, d) {
+                ranges[k].0 = ranges[k].0.min(lo);
+                ranges[k].1 = ranges[k].1.max(hi);
+                widest[k] = widest[k].max(hi - lo);
+            }
+        }
+    }
+    let steps: Vec<f64> = (0..nax)
+        .map(|k| (sc.step_r * input.scale).max(widest[k] / sc.max_planes_per_axis as f64))
+        .collect();
+    let nbins: Vec<usize> = (0..nax)
+        .map(|k| {
+            if ranges[k].1 > ranges[k].0 {
+                ((ranges[k].1 - ranges[k].0) / steps[k]).ceil() as usize + 1
+            } else {
+                0
+            }
+        })
+        .collect();
+    let offset_of = |k: usize, i: usize| ranges[k].0 + i as f64 * steps[k];
+    let small: Vec<(View, ImageF32)> = scene
+        .views
+        .iter()
+        .zip(images)
+        .map(|(v, img)| {
+            let mut sv = v.clone();
+            let (w, h) = ((img.width / f).max(1), (img.height / f).max(1));
+            sv.camera = v.camera.rescaled(w, h);
+            (sv, downsample_image(img, f))
+        })
+        .collect();
+    let px_per_view = small.first().map_or(1, |(v, _)| {
+        v.camera.width as usize * v.camera.height as usize
+    });
+    let min_votes = ((sc.min_vote_fraction * px_per_view as f64).ceil() as u32).max(1);
+    let min_view_votes = (min_votes / 10).max(1);
+    let mut total: Vec<Vec<u32>> = nbins.iter().map(|&n| vec![0; n]).collect();
+    let mut views_voting: Vec<Vec<u32>> = nbins.iter().map(|&n| vec![0; n]).collect();
+    for v in 0..scene.views.len() {
+        let nb = select_neighbours(scene, v, sc.neighbours)
+            .map_err(|e| HypothesesError::Input(e.to_string()))?;
+        if nb.is_empty() {
+            continue;
+        }
+        let (ref_view, ref_img) = &small[v];
+        let neighbours: Vec<(&View, &ImageF32)> =
+            nb.iter().map(|&j| (&small[j].0, &small[j].1)).collect();
+        let npx = ref_view.camera.width as usize * ref_view.camera.height as usize;
+        // Per axis: best cost, its bin, and the best cost more than two bins away.
+        let mut best = vec![(1.0f32, u32::MAX, 1.0f32); npx * nax];
+        for (k, d) in dirs.iter().enumerate() {
+            let Some((lo, hi)) = frustum_offset_range(scene, v, d) else {
+                continue;
+            };
+            let i0 = ((lo - ranges[k].0) / steps[k]).floor().max(0.0) as usize;
+            let i1 = (((hi - ranges[k].0) / steps[k]).ceil() as usize).min(nbins[k] - 1);
+            if i1 <= i0 {
+                continue;
+            }
+            let planes: Vec<Plane> = (i0..=i1)
+                .map(|i| Plane {
+                    normal: *d,
+                    offset: offset_of(k, i),
+                })
+                .collect();
+            let vol = plane_cost_volume(ref_view, ref_img, &neighbours, &planes, &sc.photo)
+                .map_err(|e| HypothesesError::Input(e.to_string()))?;
+            let np = planes.len();
+            for p in 0..npx {
+                let c = &vol.costs[p * np..(p + 1) * np];
+                let (bi, bc) = c
+                    .iter()
+                    .enumerate()
+                    .fold(
+                        (0usize, f32::INFINITY),
+                        |a, (i, &x)| if x < a.1 { (i, x) } else { a },
+                    );
+                let second = c
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| i.abs_diff(bi) > 2)
+                    .fold(1.0f32, |a, (_, &x)| a.min(x));
+                best[p * nax + k] = (bc, (i0 + bi) as u32, second);
+            }
+        }
+        let texture = texture_mask(ref_img, sc.photo.window_radius, sc.texture_threshold);
+        let mut votes: Vec<Vec<u32>> = nbins.iter().map(|&n| vec![0; n]).collect();
+        for p in 0..npx {
+            if !texture[p] {
+                continue;
+            }
+            let row = &best[p * nax..(p + 1) * nax];
+            let Some((k, &(bc, bi, second))) = row
+                .iter()
+                .enumerate()
+                .filter(|(_, b)| b.1 != u32::MAX)
+                .min_by(|a, b| a.1 .0.total_cmp(&b.1 .0))
+            else {
+                continue;
+            };
+            let other = row
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != k)
+                .fold(second, |a, (_, b)| a.min(b.0));
+            if bc <= sc.max_cost && other - bc >= sc.min_margin {
+                votes[k][bi as usize] += 1;
+            }
+        }
+        for k in 0..nax {
+            for i in 0..nbins[k] {
+                total[k][i] += votes[k][i];
+                let near: u32 = votes[k][i.saturating_sub(1)..(i + 2).min(nbins[k])]
+                    .iter()
+                    .sum();
+                if near >= min_view_votes {
+                    views_voting[k][i] += 1;
+                }
+            }
+        }
+    }
+    // Peaks of the vote histogram (±1 bin window) that are not existing hypotheses.
+    let mut out = Vec::new();
+    let h = config.bandwidth_r * input.scale;
+    for k in 0..nax {
+        let n = nbins[k];
+        let win = |i: usize| -> u32 { total[k][i.saturating_sub(1)..(i + 2).min(n)].iter().sum() };
+        for i in 0..n {
+            let t = win(i);
+            if t < min_votes || views_voting[k][i] < sc.min_views as u32 {
+                continue;
+            }
+            let left_ok = i == 0 || win(i - 1) < t;
+            let right_ok = i + 1 >= n || win(i + 1) <= t;
+            if !(left_ok && right_ok) {
+                continue;
+            }
+            let (mut sw, mut so) = (0.0f64, 0.0f64);
+            for j in i.saturating_sub(1)..(i + 2).min(n) {
+                sw += total[k][j] as f64;
+                so += total[k][j] as f64 * offset_of(k, j);
+            }
+            let offset = so / sw;
+            let d = dirs[k];
+            let dup = existing
+                .iter()
+                .chain(out.iter())
+                .any(|e: &PlaneHypothesis| {
+                    let c = e.plane.normal.dot(&d);
+                    c.abs() >= config.merge_angle_deg.to_radians().cos()
+                        && (e.plane.offset - c.signum() * offset).abs()
+                            < (config.merge_offset_r * input.scale).max(1.5 * steps[k])
+                });
+            if dup {
+                continue;
+            }
+            let support = input
+                .positions
+                .iter()
+                .filter(|p| (d.dot(p) - offset).abs() <= h)
+                .count();
+            out.push(PlaneHypothesis {
+                id: 0,
+                plane: Plane { normal: d, offset },
+                axis: Some(k),
+                support,
+            });
+        }
+    }
+    for (i, hyp) in out.iter_mut().enumerate() {
+        hyp.id = (existing.len() + i) as u32;
+    }
+    let bins = (0..nax)
+        .map(|k| {
+            (0..nbins[k])
+                .filter(|&i| total[k][i] > 0)
+                .map(|i| (offset_of(k, i), total[k][i], views_voting[k][i]))
+                .collect()
+        })
+        .collect();
+    Ok((out, SweepVotes { step: steps, bins }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -578,6 +973,114 @@ mod tests {
         for h in hyps.iter().filter(|h| !matched_ids.contains(&h.id)) {
             assert!(h.support * 4 < weakest_true, "spurious {h:?}");
         }
+    }
+
+    /// A textured room corner (walls x = 0, y = 0, floor z = 0) seen by the corner views;
+    /// sparse points only on the floor and the wall y = 0 (plus 3 on x = 0, below any
+    /// support threshold): the sweep must propose x = 0, and nothing the points already give.
+    #[test]
+    fn sweep_proposes_the_textured_wall_the_points_miss() {
+        use crate::planemap::testutil::{cast, corner_views};
+        let views = corner_views();
+        let texture = |p: &Vector3<f64>, face: usize| -> f32 {
+            // Random grey per 0.15 m cell of the face's two in-plane coordinates.
+            let (a, b) = match face {
+                0 => (p.y, p.z),
+                1 => (p.x, p.z),
+                _ => (p.x, p.y),
+            };
+            let (i, j) = ((a / 0.15).floor() as i64, (b / 0.15).floor() as i64);
+            let h = (i.wrapping_mul(73_856_093)
+                ^ j.wrapping_mul(19_349_663)
+                ^ (face as i64 * 83_492_791))
+                .rem_euclid(1000);
+            0.2 + 0.6 * h as f32 / 1000.0
+        };
+        let images: Vec<ImageF32> = views
+            .iter()
+            .map(|v| {
+                let (w, h) = (v.camera.width, v.camera.height);
+                let mut img = ImageF32::filled(w, h, 1, 0.0);
+                for y in 0..h {
+                    for x in 0..w {
+                        let (o, d) = v.ray(&nalgebra::Vector2::new(x as f64 + 0.5, y as f64 + 0.5));
+                        img.pixel_mut(x, y)[0] = cast(&o, &d).map_or(0.05, |(f, p)| texture(&p, f));
+                    }
+                }
+                img
+            })
+            .collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut positions = Vec::new();
+        for (face, count) in [(1usize, 150), (2, 150), (0, 3)] {
+            for _ in 0..count {
+                let mut p = Vector3::zeros();
+                for k in 0..3 {
+                    if k != face {
+                        p[k] = rng.random_range(0.1..3.9);
+                    }
+                }
+                positions.push(p);
+            }
+        }
+        let n = positions.len();
+        let mut normals = vec![Vector3::z(); n];
+        for (i, nr) in normals.iter_mut().enumerate().take(150) {
+            let _ = i;
+            *nr = Vector3::y();
+        }
+        normals[300..].fill(Vector3::x());
+        let confidence = vec![1.0; n];
+        let scene = Scene {
+            views,
+            cloud: crate::scene::SparseCloud {
+                tracks: positions.iter().map(|_| vec![0, 1, 2]).collect(),
+                colors: vec![[128; 3]; n],
+                errors: vec![0.5; n],
+                confidence: confidence.clone(),
+                normals: None,
+                positions: positions.clone(),
+            },
+        };
+        let axes = manual_axes(vec![Vector3::x(), Vector3::y(), Vector3::z()]);
+        let input = HypothesesInput {
+            positions: &positions,
+            normals: &normals,
+            confidence: &confidence,
+            axes: &axes,
+            scale: 0.02,
+        };
+        let cfg = HypothesesConfig {
+            sweep: SweepHypothesesConfig {
+                max_planes_per_axis: 60,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let existing = plane_hypotheses(&input, &cfg).unwrap();
+        assert!(existing.iter().all(|h| h.axis != Some(0)), "{existing:?}");
+        let (extra, votes) = sweep_hypotheses(&scene, &images, &input, &existing, &cfg).unwrap();
+        assert_eq!(votes.step.len(), 3);
+        let wall: Vec<_> = extra.iter().filter(|h| h.axis == Some(0)).collect();
+        assert_eq!(wall.len(), 1, "{extra:?}");
+        assert!(
+            wall[0].plane.offset.abs() < 2.0 * votes.step[0],
+            "{:?}",
+            wall[0]
+        );
+        assert_eq!(wall[0].id as usize, existing.len());
+        // Nothing within the merge tolerance of the floor or the wall y = 0.
+        for h in &extra {
+            for e in &existing {
+                let same = h.plane.normal.dot(&e.plane.normal).abs() > 0.99;
+                assert!(
+                    !same || (h.plane.offset - e.plane.offset).abs() > 0.02,
+                    "{h:?}"
+                );
+            }
+        }
+        // Bad input: image count.
+        assert!(sweep_hypotheses(&scene, &images[..2], &input, &existing, &cfg).is_err());
     }
 
     fn manual_axes(dirs: Vec<Vector3<f64>>) -> DominantAxes {

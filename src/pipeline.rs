@@ -15,9 +15,12 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::axes::{dominant_axes, AxesConfig, AxesError, DominantAxes};
+use crate::axes::{
+    dominant_axes, refine_axes_from_planes, AxesConfig, AxesError, AxisPlane, DominantAxes,
+};
 use crate::hypotheses::{
-    plane_hypotheses, HypothesesConfig, HypothesesError, HypothesesInput, PlaneHypothesis,
+    plane_hypotheses, sweep_hypotheses, HypothesesConfig, HypothesesError, HypothesesInput,
+    PlaneHypothesis,
 };
 use crate::io::atomic::write_atomic;
 use crate::io::dense::{write_dense_map_path, DenseError};
@@ -252,8 +255,16 @@ pub struct Prepared {
     pub oriented: OrientedCloud,
     /// Dominant directions.
     pub axes: DominantAxes,
-    /// Plane hypotheses; a planemap label `l` is hypothesis `l`.
+    /// Plane hypotheses; a planemap label `l` is hypothesis `l`. The sparse-point ones come
+    /// first, then those of the photo-consistency sweep.
     pub hypotheses: Vec<PlaneHypothesis>,
+    /// How many of `hypotheses` (the last ones) come from the photo-consistency sweep
+    /// ([`crate::hypotheses::sweep_hypotheses`]); they are offered in every view where they
+    /// lie in front of the camera, since few sparse points support them.
+    pub sweep_hypotheses: usize,
+    /// The undistorted images of all views, when a stage needs the neighbours' images (the
+    /// sweep or the photo-consistency data term); `None` otherwise.
+    pub images: Option<Vec<ImageF32>>,
     /// Seconds spent per stage: scale + normals, axes, hypotheses.
     pub seconds: [f64; 3],
 }
@@ -277,19 +288,68 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
     let oriented = estimate_normals_with_scale(scene, scale, &cfg.normals)?;
     let t_normals = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let axes = dominant_axes(&oriented, &cfg.axes)?;
+    let mut axes = dominant_axes(&oriented, &cfg.axes)?;
     let t_axes = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let hypotheses = plane_hypotheses(
-        &HypothesesInput {
+    fn hyp_input<'a>(
+        scene: &'a Scene,
+        oriented: &'a OrientedCloud,
+        axes: &'a DominantAxes,
+        scale: f64,
+    ) -> HypothesesInput<'a> {
+        HypothesesInput {
             positions: &scene.cloud.positions,
             normals: &oriented.normals,
             confidence: &oriented.confidence,
-            axes: &axes,
+            axes,
             scale,
-        },
-        &cfg.hypotheses,
-    )?;
+        }
+    }
+    let mut hypotheses =
+        plane_hypotheses(&hyp_input(scene, &oriented, &axes, scale), &cfg.hypotheses)?;
+    // Axis refit from the points on the hypotheses, then hypotheses along the refit axes.
+    for _ in 0..cfg.axes.refine.iterations {
+        let planes: Vec<AxisPlane> = hypotheses
+            .iter()
+            .filter_map(|h| {
+                let axis = h.axis?;
+                let sign = h.plane.normal.dot(&axes.directions[axis]).signum();
+                Some(AxisPlane {
+                    axis,
+                    offset: sign * h.plane.offset,
+                })
+            })
+            .collect();
+        axes = refine_axes_from_planes(
+            &axes,
+            &scene.cloud.positions,
+            &oriented.normals,
+            &planes,
+            scale,
+            &cfg.axes.refine,
+        );
+        hypotheses = plane_hypotheses(&hyp_input(scene, &oriented, &axes, scale), &cfg.hypotheses)?;
+    }
+    let input = hyp_input(scene, &oriented, &axes, scale);
+    // Images are loaded once for all views when a stage matches views against each other.
+    let wants_images = cfg.hypotheses.sweep.enabled || cfg.planemap.photo_weight > 0.0;
+    let images = if wants_images && scene.views.iter().all(|v| v.image_path.is_some()) {
+        Some(
+            scene
+                .views
+                .par_iter()
+                .map(|v| v.load_undistorted_image())
+                .collect::<Result<Vec<_>, _>>()?,
+        )
+    } else {
+        None
+    };
+    let mut num_sweep = 0;
+    if let (true, Some(imgs)) = (cfg.hypotheses.sweep.enabled, &images) {
+        let (extra, _) = sweep_hypotheses(scene, imgs, &input, &hypotheses, &cfg.hypotheses)?;
+        num_sweep = extra.len();
+        hypotheses.extend(extra);
+    }
     if hypotheses.is_empty() {
         return Err(PipelineError::Scene(format!(
             "no plane hypothesis has enough support ({} points, {} dominant directions)",
@@ -302,6 +362,8 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
         oriented,
         axes,
         hypotheses,
+        sweep_hypotheses: num_sweep,
+        images,
         seconds: [t_normals, t_axes, t.elapsed().as_secs_f64()],
     })
 }
@@ -342,7 +404,12 @@ pub fn label_view(
 ) -> Result<ViewPlanemap, PipelineError> {
     let view = &scene.views[view_index];
     let planes: Vec<_> = prepared.hypotheses.iter().map(|h| h.plane).collect();
+    let photo_planes: Vec<u32> = (prepared.hypotheses.len() - prepared.sweep_hypotheses
+        ..prepared.hypotheses.len())
+        .map(|i| i as u32)
+        .collect();
     let inputs = ViewInputs {
+        photo_planes: &photo_planes,
         view_index,
         views: &scene.views,
         image,
@@ -360,7 +427,11 @@ pub fn label_view(
         source,
     };
     let t = Instant::now();
-    let energy = PlanemapEnergy::build(&inputs, &cfg.planemap).map_err(planemap_err)?;
+    let mut energy = PlanemapEnergy::build(&inputs, &cfg.planemap).map_err(planemap_err)?;
+    if let (true, Some(images)) = (cfg.planemap.photo_weight > 0.0, &prepared.images) {
+        add_photo_term(scene, view_index, image, images, &mut energy, &cfg.planemap)
+            .map_err(planemap_err)?;
+    }
     let t_build = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let num_labels = energy.num_labels();
@@ -417,6 +488,38 @@ pub fn label_view(
         cycles: solution.cycles.len(),
         seconds: (t_build, t_solve),
     })
+}
+
+/// Adds the photo-consistency data term `photo_weight · c_p(h)` to a view's energy: the NCC
+/// cost volume of the view's labels against its best neighbours.
+fn add_photo_term(
+    scene: &Scene,
+    view_index: usize,
+    image: &ImageF32,
+    images: &[ImageF32],
+    energy: &mut PlanemapEnergy,
+    cfg: &PlanemapConfig,
+) -> Result<(), PlanemapError> {
+    let photo_err = |e: crate::photo::PhotoError| PlanemapError::Input(format!("photo term: {e}"));
+    let nb = crate::photo::select_neighbours(scene, view_index, cfg.photo_neighbours)
+        .map_err(photo_err)?;
+    if nb.is_empty() {
+        return Ok(());
+    }
+    let neighbours: Vec<_> = nb.iter().map(|&j| (&scene.views[j], &images[j])).collect();
+    let volume = crate::photo::plane_cost_volume(
+        &scene.views[view_index],
+        image,
+        &neighbours,
+        &energy.planes,
+        &crate::photo::PhotoConfig::default(),
+    )
+    .map_err(photo_err)?;
+    let w = cfg.photo_weight as f32;
+    for (u, c) in energy.unary.iter_mut().zip(&volume.costs) {
+        *u += w * c;
+    }
+    Ok(())
 }
 
 /// Which views to process and how.

@@ -279,6 +279,37 @@ fn degenerate_inputs_give_errors_or_finite_results() {
         assert!(views[0].depth.iter().all(|z| z.is_finite() && *z >= 0.0));
     }
 
+    // A camera inside the geometry: view 0 moved to the centroid of the points (inside the
+    // demo's objects), keeping its orientation and tracks. Whatever it labels must be finite
+    // and non-negative, with unit or zero normals; or a clear error.
+    let mut inside = scene.clone();
+    let n = inside.cloud.positions.len() as f64;
+    let centroid = inside
+        .cloud
+        .positions
+        .iter()
+        .fold(Vector3::zeros(), |a, p| a + p)
+        / n;
+    let rot = inside.views[0].cam_from_world.rotation;
+    inside.views[0].cam_from_world =
+        planemap::geometry::Rigid3::from_parts((rot * -centroid).into(), rot);
+    assert!((inside.views[0].center() - centroid).norm() < 1e-9);
+    match pipeline::run(
+        &inside,
+        &cfg,
+        &tmp.path().join("i"),
+        &RunOptions::default(),
+        &hidden,
+    ) {
+        Ok((_, views, _)) => {
+            for v in &views {
+                assert!(v.depth.iter().all(|z| z.is_finite() && *z >= 0.0));
+                assert!(v.normals.iter().all(|n| n.iter().all(|c| c.is_finite())));
+            }
+        }
+        Err(e) => assert!(!e.to_string().is_empty()),
+    }
+
     // An image that disagrees with its camera: the error names the file.
     let img = ws.join("images").join(&scene.views[0].name);
     image::RgbImage::new(10, 10).save(&img).unwrap();

@@ -316,6 +316,7 @@ mod tests {
 
     fn costs_for(line: &Line, cloud: &SparseCloud, config: &PlanemapConfig) -> Vec<f32> {
         let inputs = ViewInputs {
+            photo_planes: &[],
             view_index: 0,
             views: &line.views,
             image: &line.image,
@@ -444,6 +445,7 @@ mod tests {
         let config = PlanemapConfig::default();
         let t = 0;
         let inputs = ViewInputs {
+            photo_planes: &[],
             view_index: t,
             views: &views,
             image: &images[t],
@@ -506,6 +508,7 @@ mod tests {
         ];
         let cloud = one_point(vec![0, 1], 0.9);
         let inputs = ViewInputs {
+            photo_planes: &[],
             view_index: 0,
             views: &line.views,
             image: &line.image,
@@ -532,6 +535,7 @@ mod tests {
     fn data_costs_identical_across_thread_counts() {
         let scene = corner_scene();
         let inputs = ViewInputs {
+            photo_planes: &[],
             view_index: 1,
             views: &scene.views,
             image: &scene.images[1],

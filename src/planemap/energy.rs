@@ -232,6 +232,7 @@ mod tests {
         let scene = corner_scene();
         let e = {
             let inputs = ViewInputs {
+                photo_planes: &[],
                 view_index: view,
                 views: &scene.views,
                 image: &scene.images[view],
@@ -485,6 +486,7 @@ mod tests {
         }
         let dirs = [Vector3::x(), Vector3::y(), Vector3::z()];
         let inputs = ViewInputs {
+            photo_planes: &[],
             view_index: 0,
             views: &views,
             image: &image,

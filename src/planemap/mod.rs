@@ -106,6 +106,12 @@ pub struct PlanemapConfig {
     /// Label pruning: at most this many labels per view, the best-supported first (0 = no
     /// cap). Bounds the α-expansion cost, which is linear in the number of labels.
     pub max_labels: usize,
+    /// Weight of the optional photo-consistency data term (Sinha et al. 2009 style):
+    /// `D_p(h) += photo_weight · c_p(h)`, c the NCC cost in [0, 1] of pixel p on plane h
+    /// against the best of `photo_neighbours` neighbour views ([`crate::photo`]). 0 = off.
+    pub photo_weight: f64,
+    /// Neighbour views matched by the photo-consistency term.
+    pub photo_neighbours: usize,
 }
 
 impl Default for PlanemapConfig {
@@ -124,6 +130,8 @@ impl Default for PlanemapConfig {
             min_support: 6,
             min_support_in_frustum: 20,
             max_labels: 0,
+            photo_weight: 0.3,
+            photo_neighbours: 3,
         }
     }
 }
@@ -161,6 +169,7 @@ impl PlanemapConfig {
         positive("data_truncation", self.data_truncation)?;
         positive("smoothness_truncation", self.smoothness_truncation)?;
         non_negative("lambda", self.lambda)?;
+        non_negative("photo_weight", self.photo_weight)?;
         if !(self.dominant_line_weight.is_finite()
             && self.dominant_line_weight >= 0.0
             && self.dominant_line_weight <= 1.0)
@@ -215,6 +224,9 @@ pub struct ViewInputs<'a> {
     pub dominant_directions: &'a [Vector3<f64>],
     /// Scene scale R: the 3D size of a pixel at the points' depths (world units).
     pub scale: f64,
+    /// Global plane indices proposed by the photo-consistency sweep: offered as labels
+    /// wherever they are in front of the camera, whatever their sparse support.
+    pub photo_planes: &'a [u32],
 }
 
 impl ViewInputs<'_> {

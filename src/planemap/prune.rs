@@ -94,7 +94,8 @@ pub fn prune_labels(
     let s = label_support(inputs, config)?;
     let n = inputs.planes.len();
     let supported = |k: usize| {
-        s.seen_support[k] >= config.min_support
+        inputs.photo_planes.contains(&(k as u32))
+            || s.seen_support[k] >= config.min_support
             || (config.min_support_in_frustum > 0
                 && s.frustum_support[k] >= config.min_support_in_frustum)
     };
@@ -127,6 +128,7 @@ mod tests {
     fn keeps_supported_planes_and_drops_the_rest() {
         let scene = corner_scene();
         let inputs = ViewInputs {
+            photo_planes: &[],
             view_index: 0,
             views: &scene.views,
             image: &scene.images[0],
@@ -168,6 +170,7 @@ mod tests {
         // No plane in front at all → an error, not an empty set.
         let behind = [scene.planes[7]];
         let only_behind = ViewInputs {
+            photo_planes: &[],
             planes: &behind,
             ..inputs
         };
