@@ -227,7 +227,7 @@ pub fn sweep_view_with_axes(
             let (p_lo, p_hi) = (percentile(&along, 0.02), percentile(&along, 0.98));
             let pad = cfg.axis_margin * (p_hi - p_lo);
             let (lo, hi) = ((p_lo - pad).max(f_lo), (p_hi + pad).min(f_hi));
-            if !(hi > lo) {
+            if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
                 continue;
             }
             let n = cfg.axis_planes;
