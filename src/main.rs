@@ -187,6 +187,10 @@ struct SweepArgs {
     /// Ground truth directory (default: ../gt beside the model, if present).
     #[arg(long)]
     gt: Option<PathBuf>,
+    /// Setting overrides `key=value` of the sweep baseline config (TOML values), e.g.
+    /// `--set sweep.photo.window_radius=5 --set axis_families=false`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
 }
 
 #[derive(Args)]
@@ -422,7 +426,9 @@ fn demo(a: DemoArgs, progress: &Progress) -> Result<()> {
 }
 
 fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
-    use planemap::baseline::{split_scores, sweep_view, texture_mask, SplitScores};
+    use planemap::baseline::{
+        scene_axes, split_scores, sweep_view_with_axes, texture_mask, SplitScores,
+    };
     let model = planemap::io::colmap::read_model(&a.model)?;
     let images = a.images.clone().or_else(|| {
         a.model
@@ -432,7 +438,12 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
     });
     let scene = model.to_scene(images.as_deref())?.undistorted();
     let gt = a.gt.clone().or_else(|| sibling_gt(&a.model));
-    let cfg = planemap::baseline::SweepBaselineConfig::default();
+    let cfg = planemap::baseline::SweepBaselineConfig::default().with_overrides(&a.set)?;
+    let axes = if cfg.axis_families {
+        scene_axes(&scene)
+    } else {
+        Vec::new()
+    };
     let all: Vec<planemap::ImageF32> = scene
         .views
         .iter()
@@ -450,7 +461,7 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
             .views
             .get(i)
             .with_context(|| format!("view index {i} out of range"))?;
-        let result = sweep_view(&scene, &all, i, &cfg)?;
+        let result = sweep_view_with_axes(&scene, &all, i, &axes, &cfg)?;
         let stem = planemap::pipeline::output_stem(&view.name);
         let depth = planemap::ImageF32 {
             width: view.camera.width,

@@ -22,8 +22,8 @@ pub use measures::{raw_cost, Measure};
 pub use normalize::Normalization;
 pub use sweep::{
     axis_planes, axis_sweep_planes, fronto_parallel_depths, fronto_parallel_planes,
-    plane_cost_volume, plane_sweep, select_neighbours, winner_takes_all, CostVolume, SweepResult,
-    NO_PLANE,
+    multi_family_sweep, plane_cost_volume, plane_sweep, refine_subplane, select_neighbours,
+    winner_takes_all, CostVolume, FamilySweepResult, PlaneFamily, Spacing, SweepResult, NO_PLANE,
 };
 
 use serde::{Deserialize, Serialize};
@@ -87,6 +87,12 @@ pub struct PhotoConfig {
     /// neighbour costs (Kang, Szeliski, Chai 2001), so up to `n − best_k` neighbours may be
     /// occluded or out of view. Clamped to the number of neighbours.
     pub best_k: usize,
+    /// Neighbours that must give evidence at a pixel (window warped into their image) for
+    /// it to get a cost below 1; the best-k mean then runs over those that do, so a pixel
+    /// seen by fewer than `best_k` neighbours (forward motion, views at the scene's edge)
+    /// is still scored. Clamped to `1..=best_k`. `best_k` reproduces a strict best-k (every
+    /// averaged cost from a neighbour that sees the window).
+    pub min_evidence: usize,
     /// A neighbour scores a window only if at least this fraction of the window's in-image
     /// reference pixels warp inside the neighbour image (in `(0, 1]`); otherwise it gives no
     /// evidence (cost 1 before the best-k choice).
@@ -104,6 +110,7 @@ impl Default for PhotoConfig {
             normalization: None,
             aggregation: Aggregation::None,
             best_k: 2,
+            min_evidence: 1,
             min_valid_fraction: 0.5,
             mi_bins: 8,
         }

@@ -21,6 +21,10 @@ use rayon::prelude::*;
 /// Plane index of a pixel with no evidence for any plane (every cost was 1).
 pub const NO_PLANE: u32 = u32::MAX;
 
+/// Per-neighbour marker: this neighbour gives no evidence at the pixel (too little of the
+/// window warps into its image, or the plane is behind a camera). Never leaves the module.
+const NO_EVIDENCE: f32 = f32::NAN;
+
 /// Photo-consistency cost of every pixel of a view on every plane hypothesis.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CostVolume {
@@ -346,14 +350,78 @@ fn prepare(
     })
 }
 
+/// Most interleaved quantities of a [`Moments`] table: the mask and five per colour channel.
+const MAX_MOMENTS: usize = 16;
+
+/// Interleaved summed-area tables of `q` per-pixel quantities, `(width+1)·(height+1)·q`
+/// `f64` values with a zero first row and column: the `q` sums of a rectangle are four
+/// contiguous reads (one cache line each for grey NCC) instead of `q` scattered tables.
+struct Moments {
+    width: usize,
+    height: usize,
+    q: usize,
+    table: Vec<f64>,
+}
+
+impl Moments {
+    fn new(width: usize, height: usize, q: usize) -> Self {
+        assert!(q <= MAX_MOMENTS, "at most {MAX_MOMENTS} quantities");
+        Moments {
+            width,
+            height,
+            q,
+            table: vec![0.0; (width + 1) * (height + 1) * q],
+        }
+    }
+
+    /// Fills the table; `fill(i, values)` writes the `q` quantities of pixel `i`.
+    fn build(&mut self, mut fill: impl FnMut(usize, &mut [f64])) {
+        let (w, q) = (self.width, self.q);
+        let stride = (w + 1) * q;
+        let mut vals = [0.0f64; MAX_MOMENTS];
+        let mut row = [0.0f64; MAX_MOMENTS];
+        for y in 0..self.height {
+            row[..q].fill(0.0);
+            let (above, here) = self.table[y * stride..(y + 2) * stride].split_at_mut(stride);
+            for x in 0..w {
+                fill(y * w + x, &mut vals[..q]);
+                let at = (x + 1) * q;
+                for k in 0..q {
+                    row[k] += vals[k];
+                    here[at + k] = above[at + k] + row[k];
+                }
+            }
+        }
+    }
+
+    /// The `q` sums over the half-open rectangle `[x0, x1) × [y0, y1)`, into `out`.
+    #[inline]
+    fn rect(&self, x0: usize, y0: usize, x1: usize, y1: usize, out: &mut [f64]) {
+        let (s, q) = ((self.width + 1) * self.q, self.q);
+        let t = &self.table;
+        let (a, b, c, d) = (
+            y1 * s + x1 * q,
+            y0 * s + x1 * q,
+            y1 * s + x0 * q,
+            y0 * s + x0 * q,
+        );
+        let (ta, tb, tc, td) = (&t[a..a + q], &t[b..b + q], &t[c..c + q], &t[d..d + q]);
+        for k in 0..q {
+            out[k] = ta[k] - tb[k] - tc[k] + td[k];
+        }
+    }
+}
+
 /// Per-worker buffers, reused across planes (never allocated per pixel).
 struct Scratch {
     /// Warped neighbour, channel-major `[c·n + p]`, `NaN` where unavailable.
     warped: Vec<f32>,
     /// Per-neighbour costs `[j·n + p]`.
     nbr_costs: Vec<f32>,
-    /// Integral tables for the box path.
+    /// Integral tables for the SSD / SAD box path.
     tables: Vec<Integral>,
+    /// The fused NCC table (empty for other measures).
+    moments: Moments,
     /// Window buffers for the generic path.
     patch_ref: Vec<f32>,
     patch_nbr: Vec<f32>,
@@ -365,8 +433,13 @@ impl Scratch {
     fn new(prep: &Prepared, cfg: &PhotoConfig) -> Self {
         let n = prep.width * prep.height;
         let side = 2 * cfg.window_radius as usize + 1;
-        let tables = if cfg.measure.is_box_decomposable() {
-            (0..1 + 5 * prep.channels)
+        let moments = if cfg.measure == Measure::Ncc {
+            Moments::new(prep.width, prep.height, 1 + 5 * prep.channels)
+        } else {
+            Moments::new(0, 0, 0)
+        };
+        let tables = if matches!(cfg.measure, Measure::Ssd | Measure::Sad) {
+            (0..2)
                 .map(|_| Integral::new(prep.width, prep.height))
                 .collect()
         } else {
@@ -374,8 +447,9 @@ impl Scratch {
         };
         Scratch {
             warped: vec![f32::NAN; n * prep.channels],
-            nbr_costs: vec![1.0; n * prep.nbr_views.len()],
+            nbr_costs: vec![NO_EVIDENCE; n * prep.nbr_views.len()],
             tables,
+            moments,
             patch_ref: vec![0.0; side * side * prep.channels],
             patch_nbr: vec![0.0; side * side * prep.channels],
             pixel_costs: Vec::with_capacity(prep.nbr_views.len()),
@@ -385,31 +459,24 @@ impl Scratch {
 
 /// Warps neighbour `j` onto the reference grid through `h` (reference → neighbour image
 /// coordinates). Pixels whose ray meets the plane behind the reference camera, or whose
-/// point is behind the neighbour or projects outside its image, get `NaN`. Returns whether
-/// every pixel is available.
-fn warp(
-    prep: &Prepared,
-    j: usize,
-    h: &Matrix3<f64>,
-    ref_plane: &Plane,
-    warped: &mut [f32],
-) -> bool {
+/// point is behind the neighbour or projects outside its image, get `NaN`.
+fn warp(prep: &Prepared, j: usize, h: &Matrix3<f64>, ref_plane: &Plane, warped: &mut [f32]) {
     let (w, hgt, ch) = (prep.width, prep.height, prep.channels);
     let n = w * hgt;
     let cam = &prep.ref_view.camera;
     let (fx, fy, cx, cy) = (cam.fx(), cam.fy(), cam.cx(), cam.cy());
+    // The plane's depth along the reference ray of (u, v) has the sign of
+    // d / (n · K⁻¹(u, v, 1)); the denominator is affine in (u, v).
+    let (nx, ny, nz) = (ref_plane.normal.x, ref_plane.normal.y, ref_plane.normal.z);
+    let (ra, rb, rc) = (nx / fx, ny / fy, nz - nx * cx / fx - ny * cy / fy);
     let img = &prep.neighbours[j];
     let mut px = [0.0f32; 3];
-    let mut all = true;
     for y in 0..hgt {
         let v = y as f64 + 0.5;
         for x in 0..w {
             let u = x as f64 + 0.5;
             let p = y * w + x;
-            // Depth of the plane along the reference ray must be positive.
-            let ray_dot = ref_plane.normal.x * (u - cx) / fx
-                + ref_plane.normal.y * (v - cy) / fy
-                + ref_plane.normal.z;
+            let ray_dot = ra * u + rb * v + rc;
             let in_front = ray_dot != 0.0 && ref_plane.offset / ray_dot > 0.0;
             let hz = h[(2, 0)] * u + h[(2, 1)] * v + h[(2, 2)];
             let ok = in_front
@@ -422,10 +489,8 @@ fn warp(
             for c in 0..ch {
                 warped[c * n + p] = if ok { px[c] } else { f32::NAN };
             }
-            all &= ok;
         }
     }
-    all
 }
 
 /// Shared, plane-independent reference data.
@@ -434,9 +499,6 @@ struct Context<'a> {
     cfg: &'a PhotoConfig,
     /// Reference channel-major `[c·n + p]`.
     ref_planar: Vec<f32>,
-    /// Integral tables of the reference alone (`I_c`, `I_c²` per channel), used when a warp
-    /// leaves every pixel available so the mask is all ones.
-    ref_tables: Vec<Integral>,
 }
 
 impl<'a> Context<'a> {
@@ -448,45 +510,25 @@ impl<'a> Context<'a> {
                 ref_planar[c * n + p] = prep.reference.data[p * ch + c];
             }
         }
-        let mut ref_tables = Vec::new();
-        if cfg.measure == Measure::Ncc {
-            for c in 0..ch {
-                let r = &ref_planar[c * n..(c + 1) * n];
-                let mut t = Integral::new(prep.width, prep.height);
-                t.build_with(|p| r[p] as f64);
-                ref_tables.push(t);
-                let mut t2 = Integral::new(prep.width, prep.height);
-                t2.build_with(|p| (r[p] as f64) * (r[p] as f64));
-                ref_tables.push(t2);
-            }
-        }
         Context {
             prep,
             cfg,
             ref_planar,
-            ref_tables,
         }
     }
 
-    /// Costs in `[0, 1]` of neighbour `j` on the current warp, into `out` (one per pixel).
-    fn neighbour_costs(
-        &self,
-        all_valid: bool,
-        warped: &[f32],
-        tables: &mut [Integral],
-        patch_ref: &mut [f32],
-        patch_nbr: &mut [f32],
-        out: &mut [f32],
-    ) {
-        if self.cfg.measure.is_box_decomposable() {
-            self.box_costs(all_valid, warped, tables, out);
-        } else {
-            self.window_costs(warped, patch_ref, patch_nbr, out);
+    /// Costs in `[0, 1]` of the neighbour warped into `s.warped`, into `out` (one per
+    /// pixel; [`NO_EVIDENCE`] where the window is not covered).
+    fn neighbour_costs(&self, s: &mut Scratch, out: &mut [f32]) {
+        match self.cfg.measure {
+            Measure::Ncc => self.ncc_costs(&s.warped, &mut s.moments, out),
+            Measure::Ssd | Measure::Sad => self.box_costs(&s.warped, &mut s.tables, out),
+            _ => self.window_costs(&s.warped, &mut s.patch_ref, &mut s.patch_nbr, out),
         }
     }
 
-    /// SSD / SAD / NCC from integral images: O(1) per pixel whatever the window.
-    fn box_costs(&self, all_valid: bool, warped: &[f32], tables: &mut [Integral], out: &mut [f32]) {
+    /// SSD / SAD from integral images: O(1) per pixel whatever the window.
+    fn box_costs(&self, warped: &[f32], tables: &mut [Integral], out: &mut [f32]) {
         let prep = self.prep;
         let (w, h, ch) = (prep.width, prep.height, prep.channels);
         let n = w * h;
@@ -536,63 +578,69 @@ impl<'a> Context<'a> {
                         out[y * w + x] = if cnt >= 1.0 && cnt >= min_frac * area {
                             norm.apply((t.rect_sum(x0, y0, x1, y1) / (cnt * ch as f64)) as f32)
                         } else {
-                            1.0
+                            NO_EVIDENCE
                         };
                     }
                 }
             }
-            Measure::Ncc => {
-                // Per channel: ΣI, ΣI² (masked), ΣW, ΣW², ΣIW.
-                for c in 0..ch {
-                    let base = 5 * c;
-                    if !all_valid {
-                        rest[base].build_with(|p| iv(c, p));
-                        rest[base + 1].build_with(|p| iv(c, p) * iv(c, p));
-                    }
-                    rest[base + 2].build_with(|p| wv(c, p));
-                    rest[base + 3].build_with(|p| wv(c, p) * wv(c, p));
-                    rest[base + 4].build_with(|p| iv(c, p) * wv(c, p));
-                }
-                let rest = &*rest;
-                // Reference sums over the available pixels: precomputed when all are.
-                let ref_sums: Vec<(&Integral, &Integral)> = (0..ch)
-                    .map(|c| {
-                        if all_valid {
-                            (&self.ref_tables[2 * c], &self.ref_tables[2 * c + 1])
-                        } else {
-                            (&rest[5 * c], &rest[5 * c + 1])
-                        }
-                    })
-                    .collect();
-                for y in 0..h {
-                    let (y0, y1) = window(y, r, h);
-                    for x in 0..w {
-                        let (x0, x1) = window(x, r, w);
-                        let area = ((x1 - x0) * (y1 - y0)) as f64;
-                        let cnt = mask_t.rect_sum(x0, y0, x1, y1);
-                        if !(cnt >= 2.0 && cnt >= min_frac * area) {
-                            out[y * w + x] = 1.0;
-                            continue;
-                        }
-                        let inv = 1.0 / cnt;
-                        let (mut cov, mut va, mut vb) = (0.0, 0.0, 0.0);
-                        for c in 0..ch {
-                            let si = ref_sums[c].0.rect_sum(x0, y0, x1, y1);
-                            let sii = ref_sums[c].1.rect_sum(x0, y0, x1, y1);
-                            let t = &rest[5 * c + 2..5 * c + 5];
-                            let sw = t[0].rect_sum(x0, y0, x1, y1);
-                            let sww = t[1].rect_sum(x0, y0, x1, y1);
-                            let siw = t[2].rect_sum(x0, y0, x1, y1);
-                            cov += siw - si * sw * inv;
-                            va += sii - si * si * inv;
-                            vb += sww - sw * sw * inv;
-                        }
-                        let score = ncc_from_moments(cov, va, vb, cnt as usize * ch);
-                        out[y * w + x] = norm.cost(score.map(|s| 1.0 - s));
-                    }
-                }
-            }
+            Measure::Ncc => unreachable!("NCC has its own fused path"),
             _ => unreachable!("only SSD, SAD and NCC are box-decomposable"),
+        }
+    }
+
+    /// NCC from one fused, interleaved summed-area table of the mask and, per channel, the
+    /// masked `I, I², W, W², I·W` (`I` reference, `W` warped neighbour): one pass to build,
+    /// four contiguous reads per pixel whatever the window — O(1) per pixel.
+    fn ncc_costs(&self, warped: &[f32], moments: &mut Moments, out: &mut [f32]) {
+        let prep = self.prep;
+        let (w, h, ch) = (prep.width, prep.height, prep.channels);
+        let n = w * h;
+        let r = self.cfg.window_radius as usize;
+        let norm = self.cfg.effective_normalization();
+        let min_frac = self.cfg.min_valid_fraction as f64;
+        let refp = &self.ref_planar;
+        moments.build(|p, vals| {
+            if warped[p].is_finite() {
+                vals[0] = 1.0;
+                for c in 0..ch {
+                    let i = refp[c * n + p] as f64;
+                    let v = warped[c * n + p] as f64;
+                    let q = &mut vals[1 + 5 * c..6 + 5 * c];
+                    q[0] = i;
+                    q[1] = i * i;
+                    q[2] = v;
+                    q[3] = v * v;
+                    q[4] = i * v;
+                }
+            } else {
+                vals.fill(0.0);
+            }
+        });
+        let mut sums = [0.0f64; MAX_MOMENTS];
+        let sums = &mut sums[..moments.q];
+        for y in 0..h {
+            let (y0, y1) = window(y, r, h);
+            let row = &mut out[y * w..(y + 1) * w];
+            for (x, o) in row.iter_mut().enumerate() {
+                let (x0, x1) = window(x, r, w);
+                let area = ((x1 - x0) * (y1 - y0)) as f64;
+                moments.rect(x0, y0, x1, y1, sums);
+                let cnt = sums[0];
+                if !(cnt >= 2.0 && cnt >= min_frac * area) {
+                    *o = NO_EVIDENCE;
+                    continue;
+                }
+                let inv = 1.0 / cnt;
+                let (mut cov, mut va, mut vb) = (0.0, 0.0, 0.0);
+                for m in sums[1..].chunks_exact(5) {
+                    let (si, sii, sw, sww, siw) = (m[0], m[1], m[2], m[3], m[4]);
+                    cov += siw - si * sw * inv;
+                    va += sii - si * si * inv;
+                    vb += sww - sw * sw * inv;
+                }
+                let score = ncc_from_moments(cov, va, vb, cnt as usize * ch);
+                *o = norm.cost(score.map(|s| 1.0 - s));
+            }
         }
     }
 
@@ -641,7 +689,7 @@ impl<'a> Context<'a> {
                 out[y * w + x] = if both >= 1 && both as f32 >= min_frac * inside as f32 {
                     norm.cost(raw_cost(self.cfg.measure, patch_ref, patch_nbr, ch, bins))
                 } else {
-                    1.0
+                    NO_EVIDENCE
                 };
             }
         }
@@ -653,8 +701,10 @@ impl<'a> Context<'a> {
         let n = prep.width * prep.height;
         let ref_plane = plane.in_camera(&prep.ref_view.cam_from_world);
         let num_nbrs = prep.nbr_views.len();
+        // Taken out of the scratch for the loop so `neighbour_costs` can borrow the rest.
+        let mut nbr_costs = std::mem::take(&mut s.nbr_costs);
         for (j, v) in prep.nbr_views.iter().enumerate() {
-            let out = &mut s.nbr_costs[j * n..(j + 1) * n];
+            let out = &mut nbr_costs[j * n..(j + 1) * n];
             let Some(h) = plane_homography(
                 &prep.ref_view.camera,
                 &prep.ref_view.cam_from_world,
@@ -662,27 +712,32 @@ impl<'a> Context<'a> {
                 &v.cam_from_world,
                 plane,
             ) else {
-                out.fill(1.0);
+                out.fill(NO_EVIDENCE);
                 continue;
             };
-            let all_valid = warp(prep, j, &h, &ref_plane, &mut s.warped);
-            self.neighbour_costs(
-                all_valid,
-                &s.warped,
-                &mut s.tables,
-                &mut s.patch_ref,
-                &mut s.patch_nbr,
-                out,
-            );
+            warp(prep, j, &h, &ref_plane, &mut s.warped);
+            self.neighbour_costs(s, out);
         }
+        s.nbr_costs = nbr_costs;
         let k = self.cfg.best_k.min(num_nbrs);
+        let min_evidence = self.cfg.min_evidence.clamp(1, k);
         let mut slice = vec![1.0f32; n];
         for (p, o) in slice.iter_mut().enumerate() {
             s.pixel_costs.clear();
-            s.pixel_costs
-                .extend((0..num_nbrs).map(|j| s.nbr_costs[j * n + p]));
-            s.pixel_costs.sort_by(f32::total_cmp);
-            *o = s.pixel_costs[..k].iter().sum::<f32>() / k as f32;
+            s.pixel_costs.extend(
+                (0..num_nbrs)
+                    .map(|j| s.nbr_costs[j * n + p])
+                    .filter(|c| !c.is_nan()),
+            );
+            // Neighbours without evidence (window out of view, plane behind them) are left
+            // out of the best-k mean; too few with evidence leaves the pixel at 1.
+            *o = if s.pixel_costs.len() < min_evidence {
+                1.0
+            } else {
+                s.pixel_costs.sort_by(f32::total_cmp);
+                let m = k.min(s.pixel_costs.len());
+                s.pixel_costs[..m].iter().sum::<f32>() / m as f32
+            };
         }
         match self.cfg.aggregation {
             super::Aggregation::None => Ok(slice),
@@ -833,6 +888,157 @@ pub fn plane_sweep(
     cfg.validate()?;
     let volume = plane_cost_volume(reference, ref_image, neighbours, planes, &cfg.photo)?;
     winner_takes_all(&volume, reference, planes, cfg.confidence_exclusion)
+}
+
+/// How the consecutive planes of one sweep family are spaced, which fixes how a fractional
+/// plane index maps to a depth along a pixel's ray.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Spacing {
+    /// Parallel planes evenly spaced in inverse depth ([`fronto_parallel_planes`]): the
+    /// inverse depth is interpolated linearly in the index.
+    InverseDepth,
+    /// Parallel planes evenly spaced in offset ([`axis_sweep_planes`]): the
+    /// depth along a ray is `d / (n·ray)`, so it is interpolated linearly in the index.
+    Offset,
+}
+
+/// Sub-plane refinement of a winner-takes-all result (in place). For a pixel whose winning
+/// plane `k` has both neighbours `k ± 1` with evidence (cost < 1), the parabola through
+/// `(k−1, c₋), (k, c₀), (k+1, c₊)` has its minimum at `k + δ`,
+/// `δ = (c₋ − c₊) / (2 (c₋ − 2c₀ + c₊))`, clamped to `[−½, ½]`; the depth becomes the
+/// interpolation (see [`Spacing`]) between the depths of planes `k` and `k ± 1` along the
+/// pixel's ray. `planes` must be one family of parallel planes in sweep order; pixels at
+/// the ends of the sweep or on a non-convex cost keep the plane's depth. `plane_index` and
+/// `cost` are left as WTA chose them.
+pub fn refine_subplane(
+    volume: &CostVolume,
+    result: &mut SweepResult,
+    reference: &View,
+    planes: &[Plane],
+    spacing: Spacing,
+) {
+    let np = volume.num_planes;
+    if np < 3 || planes.len() != np || result.depth.len() != volume.width * volume.height {
+        return;
+    }
+    let cam_planes: Vec<Plane> = planes
+        .iter()
+        .map(|p| p.in_camera(&reference.cam_from_world))
+        .collect();
+    let w = volume.width;
+    for (i, z) in result.depth.iter_mut().enumerate() {
+        let k = result.plane_index[i];
+        if k == NO_PLANE || k == 0 || k as usize + 1 >= np {
+            continue;
+        }
+        let k = k as usize;
+        let c = volume.pixel_costs(i);
+        let (cm, c0, cp) = (c[k - 1] as f64, c[k] as f64, c[k + 1] as f64);
+        if cm >= 1.0 || cp >= 1.0 {
+            continue;
+        }
+        let curvature = cm - 2.0 * c0 + cp;
+        if curvature <= 0.0 {
+            continue;
+        }
+        let delta = (0.5 * (cm - cp) / curvature).clamp(-0.5, 0.5);
+        if delta == 0.0 {
+            continue;
+        }
+        let j = if delta < 0.0 { k - 1 } else { k + 1 };
+        let t = delta.abs();
+        let ray = reference.camera.pixel_ray((i % w) as u32, (i / w) as u32);
+        let (Some(zk), Some(zj)) = (
+            cam_planes[k].depth_along(&ray),
+            cam_planes[j].depth_along(&ray),
+        ) else {
+            continue;
+        };
+        let refined = match spacing {
+            Spacing::InverseDepth => 1.0 / ((1.0 - t) / zk + t / zj),
+            Spacing::Offset => (1.0 - t) * zk + t * zj,
+        };
+        if refined.is_finite() && refined > 0.0 {
+            *z = refined as f32;
+        }
+    }
+}
+
+/// One family of parallel planes in sweep order, with how they are spaced: what
+/// [`refine_subplane`] needs to interpolate between neighbouring planes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlaneFamily {
+    /// The planes, consecutive in sweep order.
+    pub planes: Vec<Plane>,
+    /// Their spacing.
+    pub spacing: Spacing,
+}
+
+/// Winner over several plane families (see [`multi_family_sweep`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FamilySweepResult {
+    /// The winner per pixel; `plane_index` indexes the families' planes concatenated in
+    /// order, `confidence` is the winning family's (second best within that family).
+    pub sweep: SweepResult,
+    /// Index of the winning family per pixel (`u32::MAX` where none won).
+    pub family: Vec<u32>,
+}
+
+/// Plane sweep along several families at once — typically fronto-parallel plus one family
+/// per dominant axis (Gallup et al. CVPR 2007): a surface aligned with an axis is matched
+/// with a correctly slanted window by that axis's family, anything else by the
+/// fronto-parallel one. Each family is swept ([`plane_cost_volume`], [`winner_takes_all`],
+/// and [`refine_subplane`] when `subplane`), one family's volume at a time so the memory
+/// is that of the largest family; each pixel then keeps the family whose winner has the
+/// lowest cost (the earlier family on ties).
+pub fn multi_family_sweep(
+    reference: &View,
+    ref_image: &ImageF32,
+    neighbours: &[(&View, &ImageF32)],
+    families: &[PlaneFamily],
+    cfg: &SweepConfig,
+    subplane: bool,
+) -> Result<FamilySweepResult, PhotoError> {
+    cfg.validate()?;
+    if families.is_empty() {
+        return Err(PhotoError::InvalidInput("no plane family to sweep".into()));
+    }
+    let mut best: Option<FamilySweepResult> = None;
+    let mut offset = 0u32;
+    for (f, family) in families.iter().enumerate() {
+        let volume =
+            plane_cost_volume(reference, ref_image, neighbours, &family.planes, &cfg.photo)?;
+        let mut r = winner_takes_all(&volume, reference, &family.planes, cfg.confidence_exclusion)?;
+        if subplane {
+            refine_subplane(&volume, &mut r, reference, &family.planes, family.spacing);
+        }
+        match &mut best {
+            None => {
+                let family_index = r
+                    .plane_index
+                    .iter()
+                    .map(|&k| if k == NO_PLANE { u32::MAX } else { f as u32 })
+                    .collect();
+                best = Some(FamilySweepResult {
+                    sweep: r,
+                    family: family_index,
+                });
+            }
+            Some(b) => {
+                for p in 0..r.cost.len() {
+                    if r.plane_index[p] != NO_PLANE && r.cost[p] < b.sweep.cost[p] {
+                        b.sweep.cost[p] = r.cost[p];
+                        b.sweep.depth[p] = r.depth[p];
+                        b.sweep.confidence[p] = r.confidence[p];
+                        b.sweep.plane_index[p] = r.plane_index[p] + offset;
+                        b.family[p] = f as u32;
+                    }
+                }
+            }
+        }
+        offset += family.planes.len() as u32;
+    }
+    Ok(best.expect("at least one family"))
 }
 
 /// World point where the ray through the centre of pixel `(x, y)` of `view` meets `plane`.
@@ -1083,6 +1289,117 @@ mod tests {
             .position(|&k| k == NO_PLANE)
             .unwrap();
         assert!(result.normal(none, &planes).is_none() && result.depth[none].is_nan());
+    }
+
+    /// Fronto-parallel planes (a wrong slant for this tilted surface) plus a family along
+    /// the true normal: the slanted family must win on the textured half, the result must
+    /// be the per-pixel minimum over the two families, and the plane index must point into
+    /// the concatenated list.
+    #[test]
+    fn multi_family_sweep_keeps_the_cheaper_family_per_pixel() {
+        let scene = TestScene::new();
+        let fronto = PlaneFamily {
+            planes: fronto_parallel_planes(&scene.views[0], 4.0, 6.5, 32).unwrap(),
+            spacing: Spacing::InverseDepth,
+        };
+        let offsets: Vec<f64> = (-16..=16).map(|i| i as f64 * 0.025 + 0.005).collect();
+        let slanted = PlaneFamily {
+            planes: axis_planes(&[scene.plane.normal], &offsets).unwrap(),
+            spacing: Spacing::Offset,
+        };
+        let cfg = SweepConfig::default();
+        let nbrs = scene.neighbours();
+        let families = [fronto.clone(), slanted.clone()];
+        let multi = multi_family_sweep(
+            &scene.views[0],
+            &scene.images[0],
+            &nbrs,
+            &families,
+            &cfg,
+            true,
+        )
+        .unwrap();
+        let single = |f: &PlaneFamily| {
+            let v = plane_cost_volume(
+                &scene.views[0],
+                &scene.images[0],
+                &nbrs,
+                &f.planes,
+                &cfg.photo,
+            )
+            .unwrap();
+            let mut r =
+                winner_takes_all(&v, &scene.views[0], &f.planes, cfg.confidence_exclusion).unwrap();
+            refine_subplane(&v, &mut r, &scene.views[0], &f.planes, f.spacing);
+            r
+        };
+        let (a, b) = (single(&fronto), single(&slanted));
+        let (mut slanted_wins, mut textured) = (0, 0);
+        for p in 0..multi.family.len() {
+            let want = if b.plane_index[p] != NO_PLANE && b.cost[p] < a.cost[p] {
+                1
+            } else {
+                0
+            };
+            let from = if want == 1 { &b } else { &a };
+            if from.plane_index[p] == NO_PLANE {
+                assert_eq!(multi.family[p], u32::MAX);
+                continue;
+            }
+            assert_eq!(multi.family[p], want, "pixel {p}");
+            assert_eq!(multi.sweep.cost[p].to_bits(), from.cost[p].to_bits());
+            assert_eq!(multi.sweep.depth[p].to_bits(), from.depth[p].to_bits());
+            assert_eq!(
+                multi.sweep.plane_index[p],
+                from.plane_index[p] + want * fronto.planes.len() as u32
+            );
+            let (x, y) = ((p % WIDTH as usize) as u32, (p / WIDTH as usize) as u32);
+            if x >= 8 && y >= 8 && x < WIDTH - 8 && y < HEIGHT - 8 && scene.truth(x, y).1 < -0.15 {
+                textured += 1;
+                slanted_wins += want as usize;
+            }
+        }
+        let share = slanted_wins as f64 / textured as f64;
+        let ((acc, _), _) = score(&scene, &multi.sweep, 0.15);
+        eprintln!(
+            "slanted family wins on {:.1}% of textured pixels; {acc:.3} within 1%",
+            100.0 * share
+        );
+        assert!(share > 0.6, "{share}");
+        assert!(acc > 0.9, "{acc}");
+        assert!(
+            multi_family_sweep(&scene.views[0], &scene.images[0], &nbrs, &[], &cfg, true).is_err()
+        );
+    }
+
+    /// A neighbour that looks away from the surface gives no evidence: with
+    /// `min_evidence = 1` the cost is the seeing neighbour's alone; requiring two leaves
+    /// every pixel at 1.
+    #[test]
+    fn neighbours_without_evidence_are_left_out_of_best_k() {
+        let scene = TestScene::new();
+        let mut away = scene.views[2].clone();
+        let eye = away.center();
+        away.cam_from_world = look_at(&eye, &(eye * 2.0), &Vector3::z());
+        let planes = fronto_parallel_planes(&scene.views[0], 4.5, 5.5, 4).unwrap();
+        let run = |nbrs: &[(&View, &ImageF32)], best_k: usize, min_evidence: usize| {
+            let cfg = PhotoConfig {
+                best_k,
+                min_evidence,
+                ..Default::default()
+            };
+            plane_cost_volume(&scene.views[0], &scene.images[0], nbrs, &planes, &cfg).unwrap()
+        };
+        let one = run(&[(&scene.views[1], &scene.images[1])], 1, 1);
+        let pair = [
+            (&scene.views[1], &scene.images[1]),
+            (&away, &scene.images[2]),
+        ];
+        let lenient = run(&pair, 2, 1);
+        assert_eq!(one.costs, lenient.costs);
+        assert!(one.costs.iter().filter(|&&c| c < 0.5).count() > 1000);
+        let strict = run(&pair, 2, 2);
+        assert!(strict.costs.iter().all(|&c| c == 1.0));
     }
 
     #[test]
