@@ -242,20 +242,7 @@ fn neighbour_sweep<T: Cost, Tp: Topology, D: DataFn<T>, P: PairFn<T>>(
     let mut changed = 0;
     for p in 0..labels.len() {
         let cur = labels[p];
-        let local = |l: u32, labels: &[u32]| {
-            let mut c = data.d(p, l).widen();
-            for a in topo.arcs(p as u32) {
-                let q = topo.head(a) as usize;
-                let e = topo.edge_of(a);
-                c += if topo.is_forward(a) {
-                    pair.v(p, q, e, l, labels[q])
-                } else {
-                    pair.v(q, p, e, labels[q], l)
-                }
-                .widen();
-            }
-            c
-        };
+        let local = |l: u32, labels: &[u32]| crate::icm::local_cost(topo, data, pair, p, l, labels);
         let mut best: Option<(T::Acc, u32)> = None;
         let mut base = None;
         for a in topo.arcs(p as u32) {

@@ -50,20 +50,7 @@ fn icm<T: Cost, Tp: Topology, D: DataFn<T>, P: PairFn<T>>(
         let start = Instant::now();
         let mut changed = 0;
         for p in 0..labels.len() {
-            let local = |l: u32, labels: &[u32]| {
-                let mut c = data.d(p, l).widen();
-                for a in topo.arcs(p as u32) {
-                    let q = topo.head(a) as usize;
-                    let e = topo.edge_of(a);
-                    c += if topo.is_forward(a) {
-                        pair.v(p, q, e, l, labels[q])
-                    } else {
-                        pair.v(q, p, e, labels[q], l)
-                    }
-                    .widen();
-                }
-                c
-            };
+            let local = |l: u32, labels: &[u32]| local_cost(topo, data, pair, p, l, labels);
             let cur = labels[p];
             let base = local(cur, &labels);
             let mut best = (T::Acc::default(), cur);
@@ -113,4 +100,29 @@ fn icm<T: Cost, Tp: Topology, D: DataFn<T>, P: PairFn<T>>(
         cycles,
         converged,
     }
+}
+
+/// Local energy of label `l` at site `p`: its data cost plus the pairwise costs to the
+/// neighbours' current `labels` (label costs excluded). Shared by ICM and the expansion's
+/// warm-start sweeps.
+pub(crate) fn local_cost<T: Cost, Tp: Topology, D: DataFn<T>, P: PairFn<T>>(
+    topo: &Tp,
+    data: &D,
+    pair: &P,
+    p: usize,
+    l: u32,
+    labels: &[u32],
+) -> T::Acc {
+    let mut c = data.d(p, l).widen();
+    for a in topo.arcs(p as u32) {
+        let q = topo.head(a) as usize;
+        let e = topo.edge_of(a);
+        c += if topo.is_forward(a) {
+            pair.v(p, q, e, l, labels[q])
+        } else {
+            pair.v(q, p, e, labels[q], l)
+        }
+        .widen();
+    }
+    c
 }

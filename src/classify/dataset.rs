@@ -225,30 +225,15 @@ impl Confusion {
     }
     /// TP / (TP + FP); 0 when nothing was called non-planar.
     pub fn precision(&self) -> f64 {
-        let d = self.true_positive + self.false_positive;
-        if d == 0 {
-            0.0
-        } else {
-            self.true_positive as f64 / d as f64
-        }
+        ratio(self.true_positive, self.true_positive + self.false_positive)
     }
     /// TP / (TP + FN); 0 when there is no non-planar truth.
     pub fn recall(&self) -> f64 {
-        let d = self.true_positive + self.false_negative;
-        if d == 0 {
-            0.0
-        } else {
-            self.true_positive as f64 / d as f64
-        }
+        ratio(self.true_positive, self.true_positive + self.false_negative)
     }
     /// TN / (TN + FP): fraction of planar truth kept planar; 0 when there is none.
     pub fn specificity(&self) -> f64 {
-        let d = self.true_negative + self.false_positive;
-        if d == 0 {
-            0.0
-        } else {
-            self.true_negative as f64 / d as f64
-        }
+        ratio(self.true_negative, self.true_negative + self.false_positive)
     }
     /// Harmonic mean of precision and recall.
     pub fn f1(&self) -> f64 {
@@ -315,6 +300,15 @@ pub fn evaluate_workspace(
         }
     }
     Ok(scores)
+}
+
+/// `num / den`, or 0 when `den` is 0.
+fn ratio(num: u64, den: u64) -> f64 {
+    if den == 0 {
+        0.0
+    } else {
+        num as f64 / den as f64
+    }
 }
 
 #[cfg(test)]
