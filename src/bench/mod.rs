@@ -84,9 +84,12 @@ fn gt_err(path: &Path, e: impl std::fmt::Display) -> BenchError {
 /// A method the benchmark runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum Method {
-    /// planemap with the default config (plus `--set` overrides). Its data term is the
-    /// visibility term of Furukawa et al. (the config exposes no photo-consistency term).
+    /// planemap with the default config (plus `--set` overrides): the visibility-conflict
+    /// data term of Furukawa et al. plus the photo-consistency term (`planemap.photo_weight`).
     Planemap,
+    /// planemap with the visibility-conflict data term alone (`planemap.photo_weight = 0`):
+    /// what the photo-consistency term adds, scene by scene.
+    PlanemapVisibility,
     /// planemap without the dominant-line prior (w_pq = 1 everywhere): smoothness alone.
     PlanemapNoLines,
     /// Plane-sweep stereo, winner takes all, sub-plane refinement (ordinary MVS).
@@ -96,13 +99,14 @@ pub enum Method {
 }
 
 impl Method {
-    /// The methods run by default: planemap against both baselines (the variant is opt-in,
-    /// it doubles planemap's share of the run time).
+    /// The methods run by default: planemap against both baselines (the variants are
+    /// opt-in: each doubles planemap's share of the run time).
     pub const DEFAULT: [Method; 3] = [Method::Planemap, Method::Sweep, Method::Delaunay];
 
     /// Every method, in report order.
-    pub const ALL: [Method; 4] = [
+    pub const ALL: [Method; 5] = [
         Method::Planemap,
+        Method::PlanemapVisibility,
         Method::PlanemapNoLines,
         Method::Sweep,
         Method::Delaunay,
@@ -112,6 +116,7 @@ impl Method {
     pub fn name(self) -> &'static str {
         match self {
             Method::Planemap => "planemap",
+            Method::PlanemapVisibility => "planemap-vis",
             Method::PlanemapNoLines => "planemap-nolines",
             Method::Sweep => "sweep",
             Method::Delaunay => "delaunay",
@@ -573,10 +578,12 @@ fn run_method(
     run_dir: &Path,
 ) -> Result<Prediction, String> {
     match m {
-        Method::Planemap | Method::PlanemapNoLines => {
+        Method::Planemap | Method::PlanemapVisibility | Method::PlanemapNoLines => {
             let mut config = cfg.planemap.clone();
-            if m == Method::PlanemapNoLines {
-                config.planemap.dominant_line_weight = 1.0;
+            match m {
+                Method::PlanemapNoLines => config.planemap.dominant_line_weight = 1.0,
+                Method::PlanemapVisibility => config.planemap.photo_weight = 0.0,
+                _ => {}
             }
             // The bench prints its own progress: the run's bars would interleave.
             let quiet = Progress::new(true);
@@ -780,5 +787,39 @@ fn score(
         seconds: 0.0,
         peak_memory_bytes: None,
         start_memory_bytes: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn method_names_round_trip_and_are_unique() {
+        for m in Method::ALL {
+            assert_eq!(Method::from_name(m.name()).unwrap(), m);
+        }
+        let mut names: Vec<_> = Method::ALL.map(Method::name).to_vec();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), Method::ALL.len());
+        assert_eq!(
+            Method::from_name(" planemap-vis ").unwrap(),
+            Method::PlanemapVisibility
+        );
+        let err = Method::from_name("colmap").unwrap_err().to_string();
+        assert!(err.contains("planemap-vis"), "{err}");
+        assert!(Method::DEFAULT.iter().all(|m| Method::ALL.contains(m)));
+    }
+
+    #[test]
+    fn size_presets_parse_and_bad_sizes_are_errors() {
+        assert_eq!(parse_size("stress").unwrap(), Some((1280, 960)));
+        assert_eq!(parse_size("tiny").unwrap(), Some((96, 72)));
+        assert_eq!(parse_size("default").unwrap(), None);
+        assert_eq!(parse_size("640x480").unwrap(), Some((640, 480)));
+        for bad in ["huge", "0x10", "10x", "x10", "-5x4"] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
     }
 }

@@ -193,16 +193,21 @@ pub fn markdown(results: &BenchResults) -> String {
 
 /// A fixed colour per method name (by its position in [`Method::ALL`], else grey).
 fn method_color(name: &str) -> [u8; 3] {
-    const COLORS: [[u8; 3]; 4] = [
+    const COLORS: [[u8; 3]; 8] = [
         [31, 119, 180],
+        [23, 190, 207],
         [148, 103, 189],
         [255, 127, 14],
         [44, 160, 44],
+        [214, 39, 40],
+        [227, 119, 194],
+        [140, 86, 75],
     ];
     Method::ALL
         .iter()
         .position(|m| m.name() == name)
-        .map_or([120, 120, 120], |k| COLORS[k])
+        .and_then(|k| COLORS.get(k).copied())
+        .unwrap_or([120, 120, 120])
 }
 
 const STAGE_COLORS: [[u8; 3]; 8] = [
@@ -442,6 +447,16 @@ pub fn write_error_maps(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_method_has_its_own_colour() {
+        let colours: Vec<_> = Method::ALL.iter().map(|m| method_color(m.name())).collect();
+        for (i, c) in colours.iter().enumerate() {
+            assert_ne!(*c, [120, 120, 120], "{}", Method::ALL[i].name());
+            assert!(!colours[..i].contains(c), "{}", Method::ALL[i].name());
+        }
+        assert_eq!(method_color("unknown"), [120, 120, 120]);
+    }
 
     #[test]
     fn error_colours_follow_thresholds() {
