@@ -12,7 +12,7 @@ use super::BenchError;
 
 /// Bump when the renderer's output changes for the same scene file (textures, sparse
 /// sampling, ground-truth formats): cached renders of older versions are then ignored.
-pub const RENDERER_VERSION: u32 = 1;
+pub const RENDERER_VERSION: u32 = 2;
 
 /// Marker written last into a complete cache entry.
 const COMPLETE: &str = ".complete";

@@ -5,6 +5,13 @@
 //! noise-free image *and* its surface texture must have contrast at that view's pixel scale,
 //! so plain paint (and corners made only by geometry or shading) gets no points — as with
 //! real SfM on blank walls.
+//!
+//! Detection is scale-invariant, like SIFT's octaves in real SfM: an image wider than
+//! [`DETECTION_WIDTH`] is box-reduced by the integer factor [`detection_factor`] before the
+//! corner response, and the texture-contrast tests use the reduced pixel scale. The same
+//! scene rendered at 320×240 and at 1280×960 then yields nearly the same points (on the same
+//! surfaces, in the same number), instead of only the finest textures surviving at high
+//! resolution. Images up to 1.5 × [`DETECTION_WIDTH`] are detected at full resolution.
 
 use nalgebra::{Vector2, Vector3};
 use rand::{Rng, SeedableRng};
@@ -86,6 +93,35 @@ fn footprint(view: &View, z: f64) -> f64 {
     z / view.camera.fx()
 }
 
+/// Image width at which features are detected (see the module doc).
+pub(crate) const DETECTION_WIDTH: u32 = 320;
+
+/// Integer reduction factor of `view`'s image for feature detection: the nearest integer to
+/// width / [`DETECTION_WIDTH`], at least 1.
+pub(crate) fn detection_factor(view: &View) -> usize {
+    ((view.camera.width as f64 / DETECTION_WIDTH as f64).round() as usize).max(1)
+}
+
+/// `gray` (w × h) box-averaged over f × f blocks; the partial blocks at the right and bottom
+/// edges are dropped. Returns the reduced image and its size.
+fn reduce(gray: &[f32], w: usize, h: usize, f: usize) -> (Vec<f32>, usize, usize) {
+    let (rw, rh) = (w / f, h / f);
+    let inv = 1.0 / (f * f) as f32;
+    let mut out = vec![0.0f32; rw * rh];
+    for (ry, row) in out.chunks_exact_mut(rw.max(1)).enumerate().take(rh) {
+        for (rx, o) in row.iter_mut().enumerate() {
+            let mut acc = 0.0f32;
+            for y in ry * f..(ry + 1) * f {
+                acc += gray[y * w + rx * f..y * w + (rx + 1) * f]
+                    .iter()
+                    .sum::<f32>();
+            }
+            *o = acc * inv;
+        }
+    }
+    (out, rw, rh)
+}
+
 /// Everything the matcher checks for point `x` (normal `n`) in view `j`: in the image, facing and not too oblique, not occluded,
 /// scale compatible and textured at j's pixel scale.
 #[allow(clippy::too_many_arguments)]
@@ -132,7 +168,8 @@ fn matches_in_view(
     }
     let surf = world.surface(&hit, &origin, &dir);
     let m = &world.materials[world.prims[hit.prim as usize].material];
-    m.contrast(surf.s, surf.t, 2.0 * fp) >= cfg.min_texture_contrast
+    let detect_fp = fp * detection_factor(view) as f64;
+    m.contrast(surf.s, surf.t, 2.0 * detect_fp) >= cfg.min_texture_contrast
 }
 
 /// Detects candidates in view `vi` and finds their tracks.
@@ -146,21 +183,30 @@ fn detect(
     let view = &views[vi];
     let r = &renders[vi];
     let (w, h) = (view.camera.width as usize, view.camera.height as usize);
-    let resp = shi_tomasi(&r.clean_gray, w, h);
+    // Detection on the reduced image (f = 1: the image itself); a reduced pixel maps to the
+    // full-resolution pixel at its block's centre.
+    let f = detection_factor(view);
+    let (resp, dw, dh) = if f == 1 {
+        (shi_tomasi(&r.clean_gray, w, h), w, h)
+    } else {
+        let (g, rw, rh) = reduce(&r.clean_gray, w, h, f);
+        (shi_tomasi(&g, rw, rh), rw, rh)
+    };
+    let full = |i: usize| ((i / dw) * f + f / 2) * w + (i % dw) * f + f / 2;
     let cell = cfg.cell_px as usize;
     let cos_max = cfg.max_view_angle_deg.to_radians().cos();
     let mut picks: Vec<(f32, usize)> = Vec::new();
-    for cy in (0..h).step_by(cell) {
-        for cx in (0..w).step_by(cell) {
+    for cy in (0..dh).step_by(cell) {
+        for cx in (0..dw).step_by(cell) {
             let mut best: Option<(f32, usize)> = None;
-            for y in cy..(cy + cell).min(h) {
-                for x in cx..(cx + cell).min(w) {
-                    let i = y * w + x;
+            for y in cy..(cy + cell).min(dh) {
+                for x in cx..(cx + cell).min(dw) {
+                    let i = y * dw + x;
                     if resp[i] as f64 >= cfg.min_corner_response
-                        && r.prim[i] != u32::MAX
+                        && r.prim[full(i)] != u32::MAX
                         && best.is_none_or(|(b, _)| resp[i] > b)
                     {
-                        best = Some((resp[i], i));
+                        best = Some((resp[i], full(i)));
                     }
                 }
             }
@@ -184,7 +230,7 @@ fn detect(
         let surf = world.surface(&hit, &origin, &dir);
         let fp = footprint(view, hit.t);
         let m = &world.materials[world.prims[hit.prim as usize].material];
-        if m.contrast(surf.s, surf.t, 2.0 * fp) < cfg.min_texture_contrast {
+        if m.contrast(surf.s, surf.t, 2.0 * fp * f as f64) < cfg.min_texture_contrast {
             continue;
         }
         let track: Vec<u32> = (0..views.len())
@@ -254,16 +300,22 @@ pub(crate) fn sample(
         .collect();
 
     // Merge duplicates sequentially (views in order): a candidate is dropped when its
-    // detecting view already holds an accepted point within DEDUP_PX pixels.
+    // detecting view already holds an accepted point within DEDUP_PX detection pixels
+    // (DEDUP_PX × the view's detection factor at full resolution).
     const DEDUP_PX: f64 = 3.0;
     let mut taken: Vec<Vec<Vector2<f64>>> = vec![Vec::new(); views.len()];
-    let grid =
-        |v: &View| (v.camera.width as usize).div_ceil(8) * (v.camera.height as usize).div_ceil(8);
+    // Buckets of 8 detection pixels: the ±1 bucket search below covers the dedup radius.
+    let bucket_px = |v: &View| 8 * detection_factor(v);
+    let grid = |v: &View| {
+        let b = bucket_px(v);
+        (v.camera.width as usize).div_ceil(b) * (v.camera.height as usize).div_ceil(b)
+    };
     let mut buckets: Vec<Vec<Vec<u32>>> = views.iter().map(|v| vec![Vec::new(); grid(v)]).collect();
     let bucket_of = |v: &View, xy: &Vector2<f64>| -> Option<usize> {
-        let (bx, by) = ((xy.x / 8.0).floor(), (xy.y / 8.0).floor());
-        let bw = (v.camera.width as usize).div_ceil(8);
-        let bh = (v.camera.height as usize).div_ceil(8);
+        let b = bucket_px(v);
+        let (bx, by) = ((xy.x / b as f64).floor(), (xy.y / b as f64).floor());
+        let bw = (v.camera.width as usize).div_ceil(b);
+        let bh = (v.camera.height as usize).div_ceil(b);
         (bx >= 0.0 && by >= 0.0 && (bx as usize) < bw && (by as usize) < bh)
             .then(|| by as usize * bw + bx as usize)
     };
@@ -271,11 +323,13 @@ pub(crate) fn sample(
     for (vi, cands) in per_view.into_iter().enumerate() {
         let view = &views[vi];
         let w = view.camera.width as usize;
+        let dedup_px = DEDUP_PX * detection_factor(view) as f64;
+        let b = bucket_px(view);
         for c in cands {
             let xy = Vector2::new((c.pixel % w) as f64 + 0.5, (c.pixel / w) as f64 + 0.5);
-            let bw = (view.camera.width as usize).div_ceil(8) as isize;
-            let bh = (view.camera.height as usize).div_ceil(8) as isize;
-            let (bx, by) = ((xy.x / 8.0) as isize, (xy.y / 8.0) as isize);
+            let bw = (view.camera.width as usize).div_ceil(b) as isize;
+            let bh = (view.camera.height as usize).div_ceil(b) as isize;
+            let (bx, by) = ((xy.x / b as f64) as isize, (xy.y / b as f64) as isize);
             let mut dup = false;
             'search: for dy in -1..=1 {
                 for dx in -1..=1 {
@@ -284,7 +338,7 @@ pub(crate) fn sample(
                         continue;
                     }
                     for &k in &buckets[vi][(y * bw + x) as usize] {
-                        if (taken[vi][k as usize] - xy).norm() < DEDUP_PX {
+                        if (taken[vi][k as usize] - xy).norm() < dedup_px {
                             dup = true;
                             break 'search;
                         }
