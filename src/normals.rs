@@ -2,7 +2,8 @@
 //!
 //! Manhattan-world stereo (Furukawa et al. 2009) starts from *oriented* points (PMVS patches).
 //! A COLMAP cloud has positions only, so each point gets the normal of the plane fitted to its
-//! `k` nearest neighbours (within a radius in units of the sampling scale `R`): the eigenvector
+//! `k` nearest neighbours (within a radius: the larger of a multiple of the sampling scale `R`
+//! and a multiple of the cloud's median distance to its k-th neighbour): the eigenvector
 //! of the neighbourhood covariance with the smallest eigenvalue, oriented towards the cameras
 //! that see the point. Its confidence is the cloud's confidence times the neighbourhood's
 //! planarity `1 − λmin/λmid`. PMVS normals are used as given.
@@ -47,8 +48,16 @@ pub enum NormalsError {
 pub struct NormalsConfig {
     /// Number of nearest neighbours (including the point itself) in the PCA fit.
     pub k: usize,
-    /// Neighbours farther than this many sampling scales `R` are ignored.
+    /// Neighbours farther than this many sampling scales `R` are ignored (unless
+    /// `density_radius` allows more).
     pub max_radius_r: f64,
+    /// The radius is at least this multiple of the cloud's median distance from a point to
+    /// its k-th nearest neighbour. R is a pixel footprint, so `max_radius_r · R` shrinks
+    /// with the image resolution while SfM point spacing does not: at 1280×960 the R radius
+    /// alone held too few neighbours for any normal (no dominant axes at all). 1.0 leaves
+    /// every scene at its default size as before (there `max_radius_r · R` is larger). 0
+    /// disables it.
+    pub density_radius: f64,
     /// Fewer neighbours than this (within the radius, including the point) make the normal
     /// unreliable: the point gets the direction towards its cameras and confidence 0.
     pub min_neighbors: usize,
@@ -61,6 +70,7 @@ impl Default for NormalsConfig {
         NormalsConfig {
             k: 16,
             max_radius_r: 30.0,
+            density_radius: 1.0,
             min_neighbors: 6,
             use_given_normals: true,
         }
@@ -77,6 +87,12 @@ impl NormalsConfig {
             return Err(NormalsError::Config(format!(
                 "max_radius_r = {} must be positive and finite",
                 self.max_radius_r
+            )));
+        }
+        if !(self.density_radius >= 0.0 && self.density_radius.is_finite()) {
+            return Err(NormalsError::Config(format!(
+                "density_radius = {} must be non-negative and finite",
+                self.density_radius
             )));
         }
         if self.min_neighbors < 3 || self.min_neighbors > self.k {
@@ -167,6 +183,31 @@ pub fn estimate_normals(
     estimate_normals_with_scale(scene, r, config)
 }
 
+/// Median over the points of the distance to the k-th nearest neighbour (the point itself
+/// counts as the first), or 0 for fewer than `k` points. Independent of the thread count.
+fn median_kth_distance(tree: &ImmutableKdTree<f64, 3>, coords: &[[f64; 3]], k: usize) -> f64 {
+    let Some(kk) = NonZeroUsize::new(k) else {
+        return 0.0;
+    };
+    if coords.len() < k {
+        return 0.0;
+    }
+    let mut d: Vec<f64> = coords
+        .par_iter()
+        .map(|c| {
+            tree.query(c)
+                .nearest_n::<SquaredEuclidean<f64>>(kk)
+                .execute()
+                .into_iter()
+                .map(|q| q.distance)
+                .fold(0.0f64, f64::max)
+                .sqrt()
+        })
+        .collect();
+    let mid = d.len() / 2;
+    *d.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
 /// PCA normals for every point with a known sampling scale `r` (world units). Deterministic
 /// and independent of the thread count: each point's result depends only on its
 /// neighbourhood, sorted by (distance, index).
@@ -192,11 +233,12 @@ pub fn estimate_normals_with_scale(
     let coords: Vec<[f64; 3]> = cloud.positions.iter().map(|p| [p.x, p.y, p.z]).collect();
     let tree: ImmutableKdTree<f64, 3> =
         ImmutableKdTree::new_from_slice(&coords).map_err(|e| NormalsError::Index(e.to_string()))?;
-    let radius = config.max_radius_r * r;
     // A few spare neighbours so that ties at the k-th distance are broken by point index,
     // not by the tree's traversal order.
     let k_query = NonZeroUsize::new(config.k + KNN_TIE_SLACK)
         .ok_or_else(|| NormalsError::Config("k = 0".into()))?;
+    let radius = (config.max_radius_r * r)
+        .max(config.density_radius * median_kth_distance(&tree, &coords, config.k));
 
     let results: Vec<(Vector3<f64>, f64)> = (0..n)
         .into_par_iter()
@@ -370,6 +412,34 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn radius_follows_point_spacing_when_r_is_a_tiny_pixel_footprint() {
+        // A plane z = 0 sampled every 0.2 m (SfM-like spacing) and R = 1 mm (a high-resolution
+        // footprint): 30 R holds no neighbour, the density radius holds enough.
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let pts: Vec<Vector3<f64>> = (0..400)
+            .map(|i| {
+                let (x, y) = ((i % 20) as f64 * 0.2 - 2.0, (i / 20) as f64 * 0.2 - 2.0);
+                Vector3::new(x, y, rng.random_range(-0.002..0.002))
+            })
+            .collect();
+        let scene = scene_from(vec![test_view(0, Vector3::new(0.3, 0.2, 8.0))], pts);
+        let only_r = NormalsConfig {
+            density_radius: 0.0,
+            ..Default::default()
+        };
+        let oc = estimate_normals_with_scale(&scene, 0.001, &only_r).unwrap();
+        assert!(oc.confidence.iter().all(|&c| c == 0.0));
+        let oc = estimate_normals_with_scale(&scene, 0.001, &NormalsConfig::default()).unwrap();
+        let good = oc
+            .normals
+            .iter()
+            .zip(&oc.confidence)
+            .filter(|(n, &c)| c > 0.5 && n.z > 0.995)
+            .count();
+        assert!(good >= 390, "{good} of 400 points got the plane's normal");
+    }
+
+    #[test]
     fn given_normals_pass_through_and_bad_ones_error() {
         let views = vec![test_view(0, Vector3::new(0.0, 0.0, 8.0))];
         let mut scene = scene_from(views, vec![Vector3::zeros(), Vector3::x()]);
@@ -415,6 +485,11 @@ pub(crate) mod tests {
         assert!(c.validate().is_err());
         let c = NormalsConfig {
             max_radius_r: f64::NAN,
+            ..Default::default()
+        };
+        assert!(c.validate().is_err());
+        let c = NormalsConfig {
+            density_radius: -1.0,
             ..Default::default()
         };
         assert!(c.validate().is_err());
