@@ -298,6 +298,7 @@ mod tests {
             energy: (0.0, 0.0),
             cycles: 0,
             seconds: (0.0, 0.0),
+            planarity: None,
         };
         let m = match_by_overlap(2, std::iter::once((&view, &gt_depth, gt_ids.as_slice())));
         assert_eq!(m, vec![7, 3]);

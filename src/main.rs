@@ -139,7 +139,7 @@ struct BenchArgs {
     /// Output directory.
     #[arg(short, long, default_value = "bench-out")]
     output: PathBuf,
-    /// Methods (comma-separated): planemap, planemap-vis, planemap-nolines, sweep, delaunay, or all
+    /// Methods (comma-separated): planemap, planemap-vis, planemap-nolines, planemap-cls, sweep, delaunay, or all
     /// (default: planemap, sweep, delaunay).
     #[arg(long, value_delimiter = ',')]
     methods: Option<Vec<String>>,

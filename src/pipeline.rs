@@ -18,6 +18,7 @@ use thiserror::Error;
 use crate::axes::{
     dominant_axes, refine_axes_from_planes, AxesConfig, AxesError, AxisPlane, DominantAxes,
 };
+use crate::classify::{PlanarityMap, PlanarityModel};
 use crate::hypotheses::{
     plane_hypotheses, sweep_hypotheses, HypothesesConfig, HypothesesError, HypothesesInput,
     PlaneHypothesis,
@@ -28,6 +29,9 @@ use crate::io::labelpng::{label_colors, write_label_png, LabelPngError};
 use crate::io::pfm::{write_pfm_path, PfmError};
 use crate::io::ply::{write_ply_points_path, PlyError, PlyPoints};
 use crate::normals::{estimate_normals_with_scale, NormalsConfig, NormalsError, OrientedCloud};
+use crate::planemap::nonplanar::{
+    normals_from_depth, ExtendedEnergy, NonplanarConfig, NonplanarView, NONPLANAR,
+};
 use crate::planemap::{PlanemapConfig, PlanemapEnergy, PlanemapError, ViewInputs};
 use crate::progress::Progress;
 use crate::raster::ImageF32;
@@ -161,6 +165,8 @@ pub struct Config {
     pub solver: SolverConfig,
     /// Fused point cloud.
     pub fusion: FusionConfig,
+    /// The classifier-driven "non-planar" label (off by default).
+    pub nonplanar: NonplanarConfig,
 }
 
 impl Config {
@@ -230,6 +236,9 @@ impl Config {
         self.planemap
             .validate()
             .map_err(|e| PipelineError::Config(format!("planemap: {e}")))?;
+        self.nonplanar
+            .validate()
+            .map_err(|e| PipelineError::Config(e.to_string()))?;
         if !(self.solver.cost_scale.is_finite() && self.solver.cost_scale > 0.0) {
             return Err(PipelineError::Config(
                 "solver.cost_scale must be positive".into(),
@@ -265,6 +274,8 @@ pub struct Prepared {
     /// The undistorted images of all views, when a stage needs the neighbours' images (the
     /// sweep or the photo-consistency data term); `None` otherwise.
     pub images: Option<Vec<ImageF32>>,
+    /// The planar/non-planar classifier, loaded when `nonplanar.enabled`.
+    pub classifier: Option<PlanarityModel>,
     /// Seconds spent per stage: scale + normals, axes, hypotheses.
     pub seconds: [f64; 3],
 }
@@ -332,7 +343,8 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
     }
     let input = hyp_input(scene, &oriented, &axes, scale);
     // Images are loaded once for all views when a stage matches views against each other.
-    let wants_images = cfg.hypotheses.sweep.enabled || cfg.planemap.photo_weight > 0.0;
+    let wants_images =
+        cfg.hypotheses.sweep.enabled || cfg.planemap.photo_weight > 0.0 || cfg.nonplanar.enabled;
     let images = if wants_images && scene.views.iter().all(|v| v.image_path.is_some()) {
         Some(
             scene
@@ -357,7 +369,22 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
             axes.directions.len()
         )));
     }
+    let classifier = if cfg.nonplanar.enabled {
+        if images.is_none() {
+            return Err(PipelineError::Scene(
+                "nonplanar.enabled needs the images (a view has no image path)".into(),
+            ));
+        }
+        let model = match &cfg.nonplanar.model {
+            Some(path) => crate::classify::read_model_path(path),
+            None => crate::classify::default_model(),
+        };
+        Some(model.map_err(|e| PipelineError::Config(format!("nonplanar.model: {e}")))?)
+    } else {
+        None
+    };
     Ok(Prepared {
+        classifier,
         scale,
         oriented,
         axes,
@@ -377,7 +404,7 @@ pub struct ViewPlanemap {
     pub width: u32,
     /// Image height.
     pub height: u32,
-    /// Hypothesis index per pixel (row-major).
+    /// Hypothesis index per pixel (row-major); [`NONPLANAR`] where the non-planar label won.
     pub labels: Vec<u32>,
     /// Depth (camera z) per pixel; 0 where the plane gives none.
     pub depth: Vec<f32>,
@@ -391,6 +418,8 @@ pub struct ViewPlanemap {
     pub cycles: usize,
     /// Seconds: building the energy, solving.
     pub seconds: (f64, f64),
+    /// The classifier's `P(planar)` map, when the non-planar label was used.
+    pub planarity: Option<PlanarityMap>,
 }
 
 /// Labels one view: builds its energy ([`PlanemapEnergy`]) and minimises it by α-expansion.
@@ -432,14 +461,57 @@ pub fn label_view(
         add_photo_term(scene, view_index, image, images, &mut energy, &cfg.planemap)
             .map_err(planemap_err)?;
     }
+    // The non-planar label (Gallup et al. 2010): classifier costs and the sweep's depth.
+    let evidence = match (&prepared.classifier, &prepared.images) {
+        (Some(model), Some(images)) => Some(
+            NonplanarView::compute(
+                scene,
+                images,
+                view_index,
+                &prepared.axes.directions,
+                model,
+                &cfg.nonplanar,
+            )
+            .map_err(planemap_err)?,
+        ),
+        _ => None,
+    };
+    let unary_np = match &evidence {
+        Some(ev) => Some(
+            crate::planemap::nonplanar::add_classifier_costs(
+                &mut energy,
+                ev,
+                &cfg.nonplanar,
+                &cfg.planemap,
+            )
+            .map_err(planemap_err)?,
+        ),
+        None => None,
+    };
+    let energy = energy;
+    let ext = match (&evidence, unary_np) {
+        (Some(ev), Some(unary_np)) => Some(ExtendedEnergy {
+            planar: &energy,
+            evidence: ev,
+            unary_np,
+        }),
+        _ => None,
+    };
     let t_build = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let num_labels = energy.num_labels();
+    let planar_labels = energy.num_labels();
+    let num_labels = ext.as_ref().map_or(planar_labels, |x| x.num_labels());
     let scale = cfg.solver.cost_scale;
     let to_int = |c: f32| (c as f64 * scale).round().min(i32::MAX as f64 / 8.0) as i32;
-    let unary: Vec<i32> = energy.unary.iter().map(|&c| to_int(c)).collect();
+    let unary: Vec<i32> = match &ext {
+        Some(x) => x.dense_unary().iter().map(|&c| to_int(c)).collect(),
+        None => energy.unary.iter().map(|&c| to_int(c)).collect(),
+    };
     let initial = energy.initial_labels();
-    let smooth = |p: usize, q: usize, a: u32, b: u32| to_int(energy.pairwise(p, q, a, b));
+    let smooth: Box<dyn Fn(usize, usize, u32, u32) -> i32 + Sync + '_> = match &ext {
+        Some(x) => Box::new(move |p, q, a, b| to_int(x.pairwise(p, q, a, b))),
+        None => Box::new(|p, q, a, b| to_int(energy.pairwise(p, q, a, b))),
+    };
     let mut mrf = Mrf::grid(
         energy.width as usize,
         energy.height as usize,
@@ -448,9 +520,9 @@ pub fn label_view(
         DataCost::Dense(&unary),
     )
     .map_err(solver_err)?
-    .with_smoothness(Smoothness::Fn(Box::new(smooth)))
+    .with_smoothness(Smoothness::Fn(smooth))
     .map_err(solver_err)?;
-    for a in 0..num_labels as u32 {
+    for a in 0..planar_labels as u32 {
         if let Some(mut sites) = energy.feasible_sites(a) {
             // The start may put an infeasible label where nothing is feasible: allow it there.
             sites.extend(
@@ -465,6 +537,11 @@ pub fn label_view(
             mrf = mrf.with_feasible_sites(a, &sites).map_err(solver_err)?;
         }
     }
+    if let Some(x) = &ext {
+        mrf = mrf
+            .with_feasible_sites(x.nonplanar_label(), &x.evidence.feasible_sites())
+            .map_err(solver_err)?;
+    }
     let solution = mrf
         .expansion(
             &ExpansionConfig {
@@ -476,17 +553,53 @@ pub fn label_view(
         .map_err(solver_err)?;
     let t_solve = t.elapsed().as_secs_f64();
     let labels = solution.labels;
+    let (w, h) = (energy.width as usize, energy.height as usize);
+    let Some(x) = ext.as_ref() else {
+        return Ok(ViewPlanemap {
+            view_index,
+            width: energy.width,
+            height: energy.height,
+            depth: energy.depth_for_labels(&labels),
+            normals: energy.normals_for_labels(&labels),
+            energy: (energy.energy(&initial), energy.energy(&labels)),
+            labels: energy.global_labels(&labels),
+            candidate_labels: num_labels,
+            cycles: solution.cycles.len(),
+            seconds: (t_build, t_solve),
+            planarity: None,
+        });
+    };
+    // Planes where a plane won; the sweep's depth (and its gradient's normals) elsewhere.
+    let np = x.nonplanar_label();
+    let planar_only: Vec<u32> = labels
+        .iter()
+        .map(|&l| if l == np { 0 } else { l })
+        .collect();
+    let mut depth = energy.depth_for_labels(&planar_only);
+    let mut normals = energy.normals_for_labels(&planar_only);
+    let mut global = energy.global_labels(&planar_only);
+    let sweep_normals = normals_from_depth(&x.evidence.depth, w, h, |px, py| {
+        energy.smoothness.pixel_ray(py * w + px)
+    });
+    for (p, &l) in labels.iter().enumerate() {
+        if l == np {
+            depth[p] = x.evidence.depth[p];
+            normals[p] = sweep_normals[p];
+            global[p] = NONPLANAR;
+        }
+    }
     Ok(ViewPlanemap {
         view_index,
         width: energy.width,
         height: energy.height,
-        depth: energy.depth_for_labels(&labels),
-        normals: energy.normals_for_labels(&labels),
-        energy: (energy.energy(&initial), energy.energy(&labels)),
-        labels: energy.global_labels(&labels),
+        depth,
+        normals,
+        energy: (x.energy(&initial), x.energy(&labels)),
+        labels: global,
         candidate_labels: num_labels,
         cycles: solution.cycles.len(),
         seconds: (t_build, t_solve),
+        planarity: Some(x.evidence.planarity.clone()),
     })
 }
 
@@ -723,7 +836,7 @@ pub fn write_view_outputs(
         .iter()
         .zip(&result.depth)
         .map(|(&l, &z)| {
-            if z > 0.0 {
+            if z > 0.0 && l != NONPLANAR {
                 (l + 1).min(u16::MAX as u32) as u16
             } else {
                 0
@@ -731,7 +844,19 @@ pub fn write_view_outputs(
         })
         .collect();
     let vis_path = out.join("planemaps").join(format!("{stem}_vis.png"));
-    let vis = label_colors(&ids, w, h);
+    let mut vis = label_colors(&ids, w, h);
+    // Non-planar pixels (label 0 but a depth) in one fixed colour, unlike "no plane" (black).
+    for (i, (&l, &z)) in result.labels.iter().zip(&result.depth).enumerate() {
+        if l == NONPLANAR && z > 0.0 {
+            vis.put_pixel(i as u32 % w, i as u32 / w, image::Rgb(NONPLANAR_COLOR));
+        }
+    }
+    if let Some(map) = &result.planarity {
+        let dir = out.join("planarity");
+        std::fs::create_dir_all(&dir).map_err(|e| write_err(&dir, e))?;
+        let path = dir.join(format!("{stem}.png"));
+        map.write_png(&path).map_err(|e| write_err(&path, e))?;
+    }
     write_atomic::<std::io::Error, _>(&vis_path, |f: &mut BufWriter<File>| {
         vis.write_to(f, image::ImageFormat::Png)
             .map_err(std::io::Error::other)
@@ -774,6 +899,9 @@ pub fn write_view_outputs(
     Ok(())
 }
 
+/// Colour of non-planar pixels in the `_vis.png` planemaps (label PNG value 0 with a depth).
+pub const NONPLANAR_COLOR: [u8; 3] = [255, 0, 255];
+
 /// Reloads a view's outputs for `--resume`; `None` if any is missing or unreadable.
 fn load_view_outputs(
     out: &Path,
@@ -796,11 +924,20 @@ fn load_view_outputs(
     {
         return None;
     }
+    // Label 0 with a depth is a non-planar pixel: its normal comes from the depth map.
+    let (wu, hu) = (w as usize, h as usize);
+    let ray = |x: usize, y: usize| {
+        view.camera
+            .unproject(&Vector2::new(x as f64 + 0.5, y as f64 + 0.5))
+    };
+    let sweep_normals = normals_from_depth(&depth.data, wu, hu, ray);
     let normals = ids
         .iter()
-        .map(|&id| {
+        .zip(&depth.data)
+        .zip(&sweep_normals)
+        .map(|((&id, &z), n_np)| {
             if id == 0 {
-                return [0.0; 3];
+                return if z > 0.0 { *n_np } else { [0.0; 3] };
             }
             let n =
                 view.cam_from_world.rotation * prepared.hypotheses[id as usize - 1].plane.normal;
@@ -813,7 +950,11 @@ fn load_view_outputs(
         height: h,
         labels: ids
             .iter()
-            .map(|&id| (id as u32).saturating_sub(1))
+            .zip(&depth.data)
+            .map(|(&id, &z)| match (id, z > 0.0) {
+                (0, true) => NONPLANAR,
+                _ => (id as u32).saturating_sub(1),
+            })
             .collect(),
         depth: depth.data,
         normals,
@@ -821,6 +962,7 @@ fn load_view_outputs(
         energy: (0.0, 0.0),
         cycles: 0,
         seconds: (0.0, 0.0),
+        planarity: None,
     })
 }
 

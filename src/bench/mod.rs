@@ -26,6 +26,7 @@ use crate::io::labelpng::read_label_png;
 use crate::io::pfm::read_pfm_path;
 use crate::io::ply::{read_ply_mesh_path, read_ply_points_path};
 use crate::pipeline::{self, output_stem, Config, FusionConfig, RunOptions, ViewPlanemap};
+use crate::planemap::nonplanar::NONPLANAR;
 use crate::progress::Progress;
 use crate::scene::Scene;
 
@@ -92,6 +93,9 @@ pub enum Method {
     PlanemapVisibility,
     /// planemap without the dominant-line prior (w_pq = 1 everywhere): smoothness alone.
     PlanemapNoLines,
+    /// planemap with the classifier's "non-planar" label (`nonplanar.enabled = true`): the
+    /// plane-sweep depth where the classifier and the photo costs prefer it to any plane.
+    PlanemapClassifier,
     /// Plane-sweep stereo, winner takes all, sub-plane refinement (ordinary MVS).
     Sweep,
     /// Delaunay interpolation of the view's sparse points (OpenMVS's depth initialisation).
@@ -104,10 +108,11 @@ impl Method {
     pub const DEFAULT: [Method; 3] = [Method::Planemap, Method::Sweep, Method::Delaunay];
 
     /// Every method, in report order.
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 6] = [
         Method::Planemap,
         Method::PlanemapVisibility,
         Method::PlanemapNoLines,
+        Method::PlanemapClassifier,
         Method::Sweep,
         Method::Delaunay,
     ];
@@ -118,6 +123,7 @@ impl Method {
             Method::Planemap => "planemap",
             Method::PlanemapVisibility => "planemap-vis",
             Method::PlanemapNoLines => "planemap-nolines",
+            Method::PlanemapClassifier => "planemap-cls",
             Method::Sweep => "sweep",
             Method::Delaunay => "delaunay",
         }
@@ -231,6 +237,11 @@ pub struct MethodResult {
     pub error: Option<String>,
     /// Depth/normal counters over all views.
     pub depth: DepthCounts,
+    /// The same over ground-truth planar pixels only (plane id ≠ 0) …
+    pub planar_depth: DepthCounts,
+    /// … and over ground-truth non-planar pixels only (plane id 0 with a surface: trees,
+    /// statues, columns).
+    pub nonplanar_depth: DepthCounts,
     /// Per view (image name).
     pub views: Vec<(String, DepthCounts)>,
     /// Plane segmentation (methods with global plane labels only).
@@ -474,6 +485,8 @@ fn bench_scene(
                     method: m.name().into(),
                     error: Some(e),
                     depth: DepthCounts::default(),
+                    planar_depth: DepthCounts::default(),
+                    nonplanar_depth: DepthCounts::default(),
                     views: Vec::new(),
                     segmentation: None,
                     cloud: CloudScores::default(),
@@ -578,11 +591,15 @@ fn run_method(
     run_dir: &Path,
 ) -> Result<Prediction, String> {
     match m {
-        Method::Planemap | Method::PlanemapVisibility | Method::PlanemapNoLines => {
+        Method::Planemap
+        | Method::PlanemapVisibility
+        | Method::PlanemapNoLines
+        | Method::PlanemapClassifier => {
             let mut config = cfg.planemap.clone();
             match m {
                 Method::PlanemapNoLines => config.planemap.dominant_line_weight = 1.0,
                 Method::PlanemapVisibility => config.planemap.photo_weight = 0.0,
+                Method::PlanemapClassifier => config.nonplanar.enabled = true,
                 _ => {}
             }
             // The bench prints its own progress: the run's bars would interleave.
@@ -601,7 +618,8 @@ fn run_method(
                             .labels
                             .iter()
                             .zip(&v.depth)
-                            .map(|(&l, &z)| has_depth(z).then_some(l))
+                            // A non-planar pixel has a depth but no plane.
+                            .map(|(&l, &z)| (has_depth(z) && l != NONPLANAR).then_some(l))
                             .collect();
                         ViewPrediction {
                             view_index: v.view_index,
@@ -716,6 +734,7 @@ fn finish_baseline(
                 energy: (0.0, 0.0),
                 cycles: 0,
                 seconds: (0.0, 0.0),
+                planarity: None,
             }
         })
         .collect();
@@ -762,6 +781,22 @@ fn score(
     for (_, c) in &per_view {
         depth.add(c);
     }
+    // Planar / non-planar split: ground-truth depth kept only where the plane id says so.
+    let split = |planar: bool| {
+        let mut total = DepthCounts::default();
+        for v in &pred.views {
+            let g = &gt[v.view_index];
+            let masked: Vec<f32> = g
+                .depth
+                .iter()
+                .zip(&g.planes)
+                .map(|(&z, &id)| if (id != 0) == planar { z } else { 0.0 })
+                .collect();
+            total.add(&depth_counts(&v.depth, &masked, None));
+        }
+        total
+    };
+    let (planar_depth, nonplanar_depth) = (split(true), split(false));
     let seg = if pred.views.iter().all(|v| v.labels.is_some()) {
         let pairs: Vec<(&[Option<u32>], &[u16])> = pred
             .views
@@ -780,6 +815,8 @@ fn score(
         method: m.name().into(),
         error: None,
         depth,
+        planar_depth,
+        nonplanar_depth,
         views: per_view,
         segmentation: seg,
         cloud: cloud_scores(&pred.fused, mesh, reference, tolerance),

@@ -164,6 +164,35 @@ pub fn markdown(results: &BenchResults) -> String {
             ));
         }
     }
+    // Scenes with non-planar surfaces (≥ 1 % of ground-truth pixels): planar / non-planar.
+    let mixed: Vec<_> = results
+        .scenes
+        .iter()
+        .filter(|sc| {
+            sc.methods.iter().any(|m| {
+                m.error.is_none() && m.nonplanar_depth.gt_pixels * 100 >= m.depth.gt_pixels.max(1)
+            })
+        })
+        .collect();
+    if !mixed.is_empty() {
+        s.push_str(
+            "\nPlanar / non-planar ground-truth pixels: depth within 1% (%) and mean absolute \
+             error on the non-planar ones:\n\n| scene | method | planar ≤1% | non-planar ≤1% | \
+             non-planar MAE |\n|---|---|---|---|---|\n",
+        );
+        for sc in mixed {
+            for m in sc.methods.iter().filter(|m| m.error.is_none()) {
+                s.push_str(&format!(
+                    "| {} | {} | {} | {} | {} |\n",
+                    sc.name,
+                    m.method,
+                    pct(m.planar_depth.accuracy(1)),
+                    pct(m.nonplanar_depth.accuracy(1)),
+                    num(m.nonplanar_depth.mean_abs_error(), 3)
+                ));
+            }
+        }
+    }
     s.push_str("\nTime per stage (s):\n\n| scene | method | stages |\n|---|---|---|\n");
     for sc in &results.scenes {
         for m in &sc.methods {

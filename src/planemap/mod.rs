@@ -22,6 +22,7 @@
 pub mod data;
 pub mod energy;
 pub mod lines;
+pub mod nonplanar;
 pub mod prune;
 pub mod smooth;
 

@@ -53,6 +53,16 @@ impl Smoothness {
         self.planes_cam.len()
     }
 
+    /// 1 / R (per world unit).
+    pub fn inv_scale(&self) -> f64 {
+        self.inv_scale
+    }
+
+    /// The truncation of V (units of R).
+    pub fn truncation(&self) -> f32 {
+        self.truncation
+    }
+
     /// Local label `a`'s plane in the target camera frame.
     pub fn plane_in_camera(&self, a: u32) -> &Plane {
         &self.planes_cam[a as usize]

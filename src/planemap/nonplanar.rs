@@ -1,0 +1,532 @@
+//! The "non-planar" label: the planar prior restricted to planar regions (Gallup, Frahm and
+//! Pollefeys, CVPR 2010).
+//!
+//! With `[nonplanar] enabled`, a view's label set gains one label beyond its planes. Its depth
+//! at each pixel is ordinary plane-sweep stereo ([`crate::baseline::sweep_view_with_axes`],
+//! winner-takes-all with sub-plane refinement); its data cost is the planar/non-planar
+//! classifier's ([`crate::classify`]) `β·(−ln(1 − P + ε))` plus the photo term's weight times
+//! the sweep's winning cost, while every plane label pays `β·(−ln(P + ε))` on top of its
+//! visibility and photo costs, P being the classifier's probability that the pixel is planar.
+//! The smoothness term is unchanged in form: the truncated 3D gap, in units of R, between the
+//! two labels' depths on the ray through the pixel pair's midpoint, where the non-planar
+//! label's depth on that ray is the mean of the two pixels' sweep depths (or the one that
+//! exists). All depths are taken on the same ray, so V stays a truncated metric and
+//! α-expansion stays exact.
+//!
+//! The label is infeasible where the sweep found no depth. Outputs: the sweep depth at
+//! non-planar pixels, normals from the depth map's gradient, label [`NONPLANAR`] (written as 0
+//! in the 16-bit planemap PNG, like "no plane").
+
+use std::path::PathBuf;
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use super::{PlanemapConfig, PlanemapEnergy, PlanemapError};
+use crate::baseline::{sweep_view_with_axes, SweepBaselineConfig};
+use crate::classify::{PlanarityMap, PlanarityModel, ViewPoints};
+use crate::raster::ImageF32;
+use crate::scene::Scene;
+
+/// The global label of a non-planar pixel in [`crate::pipeline::ViewPlanemap::labels`].
+pub const NONPLANAR: u32 = u32::MAX;
+
+/// Settings of the non-planar label (`[nonplanar]` in the run's TOML config).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct NonplanarConfig {
+    /// Add the non-planar label (off by default: see papers.md for the benchmark that
+    /// decided it).
+    pub enabled: bool,
+    /// Classifier model file (`planemap classify train`); `None` = the built-in default model.
+    pub model: Option<PathBuf>,
+    /// β: weight of the classifier's costs, in data-cost units (a plane label at a pixel the
+    /// classifier calls surely non-planar pays up to β·ln(1/ε) more).
+    pub beta: f64,
+    /// ε in the classifier's costs (bounds a confident mistake's cost).
+    pub epsilon: f64,
+    /// Fronto-parallel planes of the sweep that gives the label its depth.
+    pub sweep_planes: usize,
+    /// Planes per dominant-axis family of that sweep.
+    pub sweep_axis_planes: usize,
+    /// Neighbour views of that sweep.
+    pub sweep_neighbours: usize,
+}
+
+impl Default for NonplanarConfig {
+    fn default() -> Self {
+        NonplanarConfig {
+            enabled: false,
+            model: None,
+            beta: 1.0,
+            epsilon: 0.01,
+            sweep_planes: 64,
+            sweep_axis_planes: 64,
+            sweep_neighbours: 4,
+        }
+    }
+}
+
+impl NonplanarConfig {
+    /// Checks the values.
+    pub fn validate(&self) -> Result<(), PlanemapError> {
+        let bad =
+            |field: &'static str, message: String| Err(PlanemapError::Config { field, message });
+        if !(self.beta.is_finite() && self.beta >= 0.0) {
+            return bad(
+                "nonplanar.beta",
+                format!("= {} must be finite and ≥ 0", self.beta),
+            );
+        }
+        if !(self.epsilon.is_finite() && self.epsilon > 0.0 && self.epsilon <= 1.0) {
+            return bad(
+                "nonplanar.epsilon",
+                format!("= {} must be in (0, 1]", self.epsilon),
+            );
+        }
+        if self.sweep_planes < 2 {
+            return bad(
+                "nonplanar.sweep_planes",
+                format!("= {} must be ≥ 2", self.sweep_planes),
+            );
+        }
+        if self.sweep_neighbours == 0 {
+            return bad("nonplanar.sweep_neighbours", "must be ≥ 1".into());
+        }
+        Ok(())
+    }
+
+    /// The plane-sweep settings of the label's depth.
+    pub fn sweep_config(&self) -> SweepBaselineConfig {
+        SweepBaselineConfig {
+            planes: self.sweep_planes,
+            axis_planes: self.sweep_axis_planes,
+            axis_families: self.sweep_axis_planes > 0,
+            neighbours: self.sweep_neighbours,
+            ..SweepBaselineConfig::default()
+        }
+    }
+}
+
+/// One view's non-planar evidence: the classifier's map and the sweep's depth and cost.
+#[derive(Debug, Clone)]
+pub struct NonplanarView {
+    /// `P(planar)` per pixel.
+    pub planarity: PlanarityMap,
+    /// Sweep depth per pixel (camera z); 0 where the sweep found none.
+    pub depth: Vec<f32>,
+    /// The sweep's winning photo-consistency cost per pixel in [0, 1] (1 where none).
+    pub cost: Vec<f32>,
+}
+
+impl NonplanarView {
+    /// Classifies view `view_index` of an undistorted scene (`image` is its image, `images`
+    /// every view's) and sweeps it along `axes` (world directions).
+    pub fn compute(
+        scene: &Scene,
+        images: &[ImageF32],
+        view_index: usize,
+        axes: &[Vector3<f64>],
+        model: &PlanarityModel,
+        cfg: &NonplanarConfig,
+    ) -> Result<Self, PlanemapError> {
+        let image = &images[view_index];
+        let points = ViewPoints::from_scene(scene, view_index);
+        let planarity = model
+            .planarity_map(image, Some(&points))
+            .map_err(|e| PlanemapError::Input(format!("planarity classifier: {e}")))?;
+        let n = image.width as usize * image.height as usize;
+        let (depth, cost) =
+            match sweep_view_with_axes(scene, images, view_index, axes, &cfg.sweep_config()) {
+                Ok(r) => (
+                    r.depth
+                        .iter()
+                        .map(|&z| if z.is_finite() && z > 0.0 { z } else { 0.0 })
+                        .collect(),
+                    r.cost,
+                ),
+                // No neighbour or no points: the label has no depth anywhere (infeasible).
+                Err(_) => (vec![0.0; n], vec![1.0; n]),
+            };
+        Ok(NonplanarView {
+            planarity,
+            depth,
+            cost,
+        })
+    }
+
+    /// Pixels where the non-planar label is allowed (the sweep gave a depth).
+    pub fn feasible_sites(&self) -> Vec<u32> {
+        (0..self.depth.len() as u32)
+            .filter(|&p| self.depth[p as usize] > 0.0)
+            .collect()
+    }
+}
+
+/// A view's energy with the non-planar label appended as local label `planes.num_labels()`.
+#[derive(Debug)]
+pub struct ExtendedEnergy<'a> {
+    /// The planar energy (its `unary` already carries the classifier's planar cost:
+    /// [`add_classifier_costs`]).
+    pub planar: &'a PlanemapEnergy,
+    /// The non-planar evidence.
+    pub evidence: &'a NonplanarView,
+    /// Data cost of the non-planar label per pixel ([`add_classifier_costs`]).
+    pub unary_np: Vec<f32>,
+}
+
+/// Adds the classifier's planar cost `β·(−ln(P + ε))` to every plane label of `energy` and
+/// returns the non-planar label's data cost per pixel: `β·(−ln(1 − P + ε))` plus the photo
+/// term's weight times the sweep's winning cost.
+pub fn add_classifier_costs(
+    energy: &mut PlanemapEnergy,
+    evidence: &NonplanarView,
+    cfg: &NonplanarConfig,
+    planemap: &PlanemapConfig,
+) -> Result<Vec<f32>, PlanemapError> {
+    let costs = evidence
+        .planarity
+        .unary_costs(cfg.beta as f32, cfg.epsilon as f32)
+        .map_err(|e| PlanemapError::Input(format!("planarity costs: {e}")))?;
+    let labels = energy.num_labels();
+    if labels == 0 || costs.planar.len() * labels != energy.unary.len() {
+        return Err(PlanemapError::Input(format!(
+            "planarity map of {} pixels for an energy of {} values and {labels} labels",
+            costs.planar.len(),
+            energy.unary.len()
+        )));
+    }
+    for (row, &c) in energy.unary.chunks_exact_mut(labels).zip(&costs.planar) {
+        for u in row {
+            *u += c;
+        }
+    }
+    let w = planemap.photo_weight as f32;
+    Ok(costs
+        .nonplanar
+        .iter()
+        .zip(&evidence.cost)
+        .map(|(&c, &photo)| c + w * photo)
+        .collect())
+}
+
+impl ExtendedEnergy<'_> {
+    /// Local index of the non-planar label.
+    pub fn nonplanar_label(&self) -> u32 {
+        self.planar.num_labels() as u32
+    }
+
+    /// Number of labels including the non-planar one.
+    pub fn num_labels(&self) -> usize {
+        self.planar.num_labels() + 1
+    }
+
+    /// Data cost of pixel `p` for local label `a` (planes, then the non-planar label).
+    pub fn unary(&self, p: usize, a: u32) -> f32 {
+        if a == self.nonplanar_label() {
+            self.unary_np[p]
+        } else {
+            self.planar.unary(p, a)
+        }
+    }
+
+    /// Dense data costs, `[pixel · num_labels + label]`.
+    pub fn dense_unary(&self) -> Vec<f32> {
+        let l = self.planar.num_labels();
+        let mut out = Vec::with_capacity(self.unary_np.len() * (l + 1));
+        for (row, &np) in self.planar.unary.chunks_exact(l).zip(&self.unary_np) {
+            out.extend_from_slice(row);
+            out.push(np);
+        }
+        out
+    }
+
+    /// Depth (camera z) of the non-planar label on the midpoint ray of pixels `p`, `q`: the
+    /// mean of their sweep depths, or the one that exists.
+    fn np_depth(&self, p: usize, q: usize) -> Option<f64> {
+        let (zp, zq) = (self.evidence.depth[p], self.evidence.depth[q]);
+        match (zp > 0.0, zq > 0.0) {
+            (true, true) => Some(0.5 * (zp as f64 + zq as f64)),
+            (true, false) => Some(zp as f64),
+            (false, true) => Some(zq as f64),
+            (false, false) => None,
+        }
+    }
+
+    /// λ·w_pq·V_pq(a, b) for local labels including the non-planar one.
+    pub fn pairwise(&self, p: usize, q: usize, a: u32, b: u32) -> f32 {
+        if a == b {
+            return 0.0;
+        }
+        let np = self.nonplanar_label();
+        if a != np && b != np {
+            return self.planar.pairwise(p, q, a, b);
+        }
+        let plane = if a == np { b } else { a };
+        let s = &self.planar.smoothness;
+        let ray = s.midpoint_ray(p, q);
+        let v = match (self.np_depth(p, q), s.depth(&ray, plane)) {
+            (Some(z_np), Some(z_pl)) => {
+                let gap = (z_np - z_pl).abs() * ray.norm() * s.inv_scale();
+                (gap as f32).min(s.truncation())
+            }
+            _ => s.truncation(),
+        };
+        self.planar.lambda * self.planar.weights.between(p, q) * v
+    }
+
+    /// Total energy of a labelling in local labels (real units).
+    pub fn energy(&self, labels: &[u32]) -> f64 {
+        let (w, h) = (self.planar.width as usize, self.planar.height as usize);
+        let mut e = 0.0f64;
+        for y in 0..h {
+            for x in 0..w {
+                let p = y * w + x;
+                e += self.unary(p, labels[p]) as f64;
+                if x + 1 < w {
+                    e += self.pairwise(p, p + 1, labels[p], labels[p + 1]) as f64;
+                }
+                if y + 1 < h {
+                    e += self.pairwise(p, p + w, labels[p], labels[p + w]) as f64;
+                }
+            }
+        }
+        e
+    }
+}
+
+/// Camera-frame unit normals of a depth map from its gradient (central differences where both
+/// neighbours have depth, else one-sided), facing the camera; `[0; 3]` where none.
+pub fn normals_from_depth(
+    depth: &[f32],
+    width: usize,
+    height: usize,
+    ray: impl Fn(usize, usize) -> Vector3<f64>,
+) -> Vec<[f32; 3]> {
+    let point = |x: usize, y: usize| -> Option<Vector3<f64>> {
+        let z = depth[y * width + x];
+        (z > 0.0).then(|| ray(x, y) * z as f64)
+    };
+    let mut out = vec![[0.0f32; 3]; depth.len()];
+    for y in 0..height {
+        for x in 0..width {
+            let Some(c) = point(x, y) else { continue };
+            let diff = |a: Option<Vector3<f64>>, b: Option<Vector3<f64>>| match (a, b) {
+                (Some(a), Some(b)) => Some(b - a),
+                (None, Some(b)) => Some(b - c),
+                (Some(a), None) => Some(c - a),
+                (None, None) => None,
+            };
+            let left = (x > 0).then(|| point(x - 1, y)).flatten();
+            let right = (x + 1 < width).then(|| point(x + 1, y)).flatten();
+            let up = (y > 0).then(|| point(x, y - 1)).flatten();
+            let down = (y + 1 < height).then(|| point(x, y + 1)).flatten();
+            let (Some(dx), Some(dy)) = (diff(left, right), diff(up, down)) else {
+                continue;
+            };
+            let mut n = dx.cross(&dy);
+            let len = n.norm();
+            if !(len > 0.0 && len.is_finite()) {
+                continue;
+            }
+            n /= len;
+            if n.dot(&c) > 0.0 {
+                n = -n;
+            }
+            out[y * width + x] = [n.x as f32, n.y as f32, n.z as f32];
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normals_of_a_fronto_parallel_and_a_slanted_plane() {
+        let (w, h) = (8, 6);
+        let ray =
+            |x: usize, y: usize| Vector3::new(x as f64 * 0.1 - 0.4, y as f64 * 0.1 - 0.3, 1.0);
+        let flat = vec![2.0f32; w * h];
+        let n = normals_from_depth(&flat, w, h, ray);
+        for v in &n {
+            assert!((v[2] + 1.0).abs() < 1e-6 && v[0].abs() < 1e-6, "{v:?}");
+        }
+        // Plane x + z = 3 in the camera frame: depth = 3 / (rx + 1); normal ∝ (1, 0, 1),
+        // facing the camera: −(1, 0, 1)/√2.
+        let slanted: Vec<f32> = (0..w * h)
+            .map(|i| (3.0 / (ray(i % w, i / w).x + 1.0)) as f32)
+            .collect();
+        let n = normals_from_depth(&slanted, w, h, ray);
+        let s = std::f32::consts::FRAC_1_SQRT_2;
+        for v in &n {
+            assert!((v[0] + s).abs() < 1e-4 && v[1].abs() < 1e-4 && (v[2] + s).abs() < 1e-4);
+        }
+        // No depth: no normal.
+        let mut holes = flat.clone();
+        holes[0] = 0.0;
+        assert_eq!(normals_from_depth(&holes, w, h, ray)[0], [0.0; 3]);
+    }
+
+    /// The corner scene's view-0 energy with a non-planar label whose sweep depth is label
+    /// 0's plane depth on the left half and 1.3× it on the right half.
+    fn extended() -> (PlanemapEnergy, NonplanarView) {
+        use crate::planemap::testutil::corner_scene;
+        use crate::planemap::ViewInputs;
+        let scene = corner_scene();
+        let inputs = ViewInputs {
+            photo_planes: &[],
+            view_index: 0,
+            views: &scene.views,
+            image: &scene.images[0],
+            cloud: &scene.cloud,
+            planes: &scene.planes,
+            dominant_directions: &scene.directions,
+            scale: scene.scale,
+        };
+        let energy = PlanemapEnergy::build(&inputs, &PlanemapConfig::default()).unwrap();
+        let (w, h) = (energy.width as usize, energy.height as usize);
+        let depth: Vec<f32> = (0..w * h)
+            .map(|p| {
+                let z = energy
+                    .smoothness
+                    .depth(&energy.smoothness.pixel_ray(p), 0)
+                    .unwrap_or(0.0) as f32;
+                if p % w < w / 2 {
+                    z
+                } else {
+                    1.3 * z
+                }
+            })
+            .collect();
+        let planarity = PlanarityMap {
+            width: w as u32,
+            height: h as u32,
+            planar: (0..w * h).map(|p| (p % 7) as f32 / 6.0).collect(),
+        };
+        let cost = vec![0.25; w * h];
+        (
+            energy,
+            NonplanarView {
+                planarity,
+                depth,
+                cost,
+            },
+        )
+    }
+
+    #[test]
+    fn classifier_costs_and_dense_layout() {
+        let (mut energy, ev) = extended();
+        let before = energy.unary.clone();
+        let cfg = NonplanarConfig::default();
+        let pm = PlanemapConfig::default();
+        let np = add_classifier_costs(&mut energy, &ev, &cfg, &pm).unwrap();
+        let l = energy.num_labels();
+        let costs = ev.planarity.unary_costs(1.0, 0.01).unwrap();
+        for p in [0, 5, 6, 1234] {
+            for a in 0..l {
+                let want = before[p * l + a] + costs.planar[p];
+                assert!((energy.unary[p * l + a] - want).abs() < 1e-6);
+            }
+            let want_np = costs.nonplanar[p] + pm.photo_weight as f32 * 0.25;
+            assert!((np[p] - want_np).abs() < 1e-6);
+        }
+        let x = ExtendedEnergy {
+            planar: &energy,
+            evidence: &ev,
+            unary_np: np,
+        };
+        assert_eq!(x.num_labels(), l + 1);
+        let dense = x.dense_unary();
+        assert_eq!(dense.len(), energy.unary.len() / l * (l + 1));
+        for p in [0, 77, 4000] {
+            for a in 0..=l as u32 {
+                assert_eq!(dense[p * (l + 1) + a as usize], x.unary(p, a));
+            }
+        }
+    }
+
+    #[test]
+    fn pairwise_is_a_truncated_metric_with_the_nonplanar_label() {
+        let (energy, ev) = extended();
+        let x = ExtendedEnergy {
+            planar: &energy,
+            evidence: &ev,
+            unary_np: vec![0.0; ev.depth.len()],
+        };
+        let (w, h) = (energy.width as usize, energy.height as usize);
+        let np = x.nonplanar_label();
+        let n = x.num_labels() as u32;
+        let mut checked = 0;
+        for y in (0..h - 1).step_by(7) {
+            for xx in (0..w - 1).step_by(5) {
+                let p = y * w + xx;
+                for q in [p + 1, p + w] {
+                    for a in 0..n {
+                        assert_eq!(x.pairwise(p, q, a, a), 0.0);
+                        for b in 0..n {
+                            let v = x.pairwise(p, q, a, b);
+                            assert!(v.is_finite() && v >= 0.0);
+                            assert_eq!(v, x.pairwise(p, q, b, a));
+                            if a != np && b != np {
+                                assert_eq!(v, energy.pairwise(p, q, a, b));
+                            }
+                            for c in 0..n {
+                                let (ac, cb) = (x.pairwise(p, q, a, c), x.pairwise(p, q, c, b));
+                                assert!(v <= ac + cb + 1e-3 * (1.0 + v), "{a} {b} via {c}");
+                            }
+                        }
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 500);
+        // Left half: the sweep lies on plane 0, so switching there is (nearly) free; right
+        // half: it is 30 % behind, which costs the truncation.
+        let (left, right) = (60 * w + 10, 60 * w + w - 12);
+        let trunc = energy.lambda * energy.smoothness.truncation();
+        assert!(x.pairwise(left, left + 1, 0, np) < 0.05 * trunc);
+        let wr = energy.weights.between(right, right + 1);
+        assert!((x.pairwise(right, right + 1, 0, np) - trunc * wr).abs() < 1e-4);
+        // Energy of a labelling = the sum the solver sees.
+        let labels: Vec<u32> = (0..w * h)
+            .map(|p| if p % w < w / 2 { 0 } else { np })
+            .collect();
+        let mut sum = 0.0f64;
+        for p in 0..w * h {
+            sum += x.unary(p, labels[p]) as f64;
+            if p % w + 1 < w {
+                sum += x.pairwise(p, p + 1, labels[p], labels[p + 1]) as f64;
+            }
+            if p / w + 1 < h {
+                sum += x.pairwise(p, p + w, labels[p], labels[p + w]) as f64;
+            }
+        }
+        assert!((x.energy(&labels) - sum).abs() < 1e-6 * sum.abs().max(1.0));
+    }
+
+    #[test]
+    fn config_validation_names_the_field() {
+        assert!(NonplanarConfig::default().validate().is_ok());
+        let c = NonplanarConfig {
+            beta: -1.0,
+            ..Default::default()
+        };
+        assert!(c
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("nonplanar.beta"));
+        let c = NonplanarConfig {
+            epsilon: 0.0,
+            ..Default::default()
+        };
+        assert!(c.validate().unwrap_err().to_string().contains("epsilon"));
+        let c: NonplanarConfig = toml::from_str("enabled = true\nbeta = 2.5").unwrap();
+        assert!(c.enabled && c.beta == 2.5 && c.epsilon == 0.01);
+        assert!(toml::from_str::<NonplanarConfig>("betta = 1").is_err());
+    }
+}
