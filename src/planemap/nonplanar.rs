@@ -51,6 +51,10 @@ pub struct NonplanarConfig {
     pub sweep_axis_planes: usize,
     /// Neighbour views of that sweep.
     pub sweep_neighbours: usize,
+    /// The label is allowed only where the sweep is this confident (second-best minus best
+    /// cost, [`crate::photo::SweepResult::confidence`]): where the best depth is ambiguous
+    /// (plain paint, glass) the sweep's depth means nothing and the planes must decide.
+    pub min_confidence: f64,
 }
 
 impl Default for NonplanarConfig {
@@ -63,6 +67,7 @@ impl Default for NonplanarConfig {
             sweep_planes: 64,
             sweep_axis_planes: 64,
             sweep_neighbours: 4,
+            min_confidence: 0.1,
         }
     }
 }
@@ -90,6 +95,12 @@ impl NonplanarConfig {
                 format!("= {} must be ≥ 2", self.sweep_planes),
             );
         }
+        if !(self.min_confidence.is_finite() && (0.0..=1.0).contains(&self.min_confidence)) {
+            return bad(
+                "nonplanar.min_confidence",
+                format!("= {} must be in [0, 1]", self.min_confidence),
+            );
+        }
         if self.sweep_neighbours == 0 {
             return bad("nonplanar.sweep_neighbours", "must be ≥ 1".into());
         }
@@ -113,7 +124,8 @@ impl NonplanarConfig {
 pub struct NonplanarView {
     /// `P(planar)` per pixel.
     pub planarity: PlanarityMap,
-    /// Sweep depth per pixel (camera z); 0 where the sweep found none.
+    /// Sweep depth per pixel (camera z); 0 where the sweep found none or was less confident
+    /// than `min_confidence`.
     pub depth: Vec<f32>,
     /// The sweep's winning photo-consistency cost per pixel in [0, 1] (1 where none).
     pub cost: Vec<f32>,
@@ -141,7 +153,15 @@ impl NonplanarView {
                 Ok(r) => (
                     r.depth
                         .iter()
-                        .map(|&z| if z.is_finite() && z > 0.0 { z } else { 0.0 })
+                        .zip(&r.confidence)
+                        .map(|(&z, &c)| {
+                            let sure = c as f64 >= cfg.min_confidence;
+                            if z.is_finite() && z > 0.0 && sure {
+                                z
+                            } else {
+                                0.0
+                            }
+                        })
                         .collect(),
                     r.cost,
                 ),
@@ -525,6 +545,15 @@ mod tests {
             ..Default::default()
         };
         assert!(c.validate().unwrap_err().to_string().contains("epsilon"));
+        let c = NonplanarConfig {
+            min_confidence: 1.5,
+            ..Default::default()
+        };
+        assert!(c
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("min_confidence"));
         let c: NonplanarConfig = toml::from_str("enabled = true\nbeta = 2.5").unwrap();
         assert!(c.enabled && c.beta == 2.5 && c.epsilon == 0.01);
         assert!(toml::from_str::<NonplanarConfig>("betta = 1").is_err());
