@@ -96,6 +96,12 @@ pub struct AxesConfig {
     pub extra_min_support_fraction: f64,
     /// Minimum angle (degrees) between an extra direction and every direction already found.
     pub extra_min_separation_deg: f64,
+    /// With exactly two (near-orthogonal) Manhattan directions, take the third as their cross
+    /// product (refined by the normals near it) if at least `min_support` normals lie within
+    /// `refine_angle_deg` of it: its walls may be plain and have too few sparse points for the
+    /// fractional threshold (courtyard's east/west walls: 27 normals, 1.5 %), and the
+    /// photo-consistency sweep along it can then find their planes.
+    pub complete_frame: bool,
     /// Behaviour when fewer than three Manhattan directions exist.
     pub on_missing: MissingAxes,
     /// Refit of the axes from the points on their plane hypotheses (run by the pipeline
@@ -120,6 +126,7 @@ impl Default for AxesConfig {
             max_extra_directions: 0,
             extra_min_support_fraction: 0.05,
             extra_min_separation_deg: 20.0,
+            complete_frame: true,
             on_missing: MissingAxes::Warn,
             refine: AxisRefineConfig::default(),
         }
@@ -198,6 +205,8 @@ pub enum AxesWarning {
     FewerThanThree(usize),
     /// Snapping was requested but needs at least two directions.
     SnapSkipped,
+    /// d3 was taken as d1 × d2 (`complete_frame`); this many normals lie near it.
+    CompletedThird(usize),
 }
 
 /// The dominant directions of the scene.
@@ -409,8 +418,30 @@ pub fn dominant_axes(
             None => break,
         }
     }
-    let num_manhattan = directions.len();
     let mut warnings = Vec::new();
+    if directions.len() == 2 && config.complete_frame {
+        let cross = directions[0].cross(&directions[1]);
+        if cross.norm() > 1e-9 {
+            let c = cross.normalize();
+            let (refined, n_near) = refine(&normals, c, cos_tol, config.refine_iterations);
+            // Keep the refined direction only if still orthogonal enough to both.
+            let d = if n_near > 0 && directions.iter().all(|e| ortho_ok(&refined, e)) {
+                refined
+            } else {
+                c
+            };
+            let n = axial_stats(&normals, &d, cos_tol).0;
+            // Some normals must confirm it (the absolute `min_support`, not the fraction):
+            // a corridor seen along its length has no wall across it, and the sweep then
+            // finds ghost planes across the corridor.
+            if n >= config.min_support {
+                directions.push(d);
+                support.push(n);
+                warnings.push(AxesWarning::CompletedThird(n));
+            }
+        }
+    }
+    let num_manhattan = directions.len();
     if num_manhattan < 3 {
         if config.on_missing == MissingAxes::Error {
             return Err(AxesError::TooFewAxes {
@@ -875,6 +906,46 @@ pub(crate) mod tests {
             dominant_axes(&cloud, &cfg),
             Err(AxesError::TooFewAxes { found: 1 })
         );
+    }
+
+    #[test]
+    fn third_axis_completed_from_the_cross_product_when_a_few_normals_confirm_it() {
+        let mut rng = ChaCha8Rng::seed_from_u64(21);
+        let a = Vector3::new(0.1, 0.2, 1.0).normalize();
+        let b = a.cross(&Vector3::x()).normalize();
+        let c = a.cross(&b);
+        let mut normals: Vec<_> = (0..1500).map(|_| jitter(&mut rng, a, 1.0)).collect();
+        normals.extend((0..1000).map(|_| jitter(&mut rng, b, 1.0)));
+        // 30 normals on c: below the 2 % threshold (51), above the absolute 10.
+        let few: Vec<_> = (0..30).map(|_| jitter(&mut rng, c, 1.0)).collect();
+        let with = |k: usize, complete: bool| {
+            let mut all = normals.clone();
+            all.extend_from_slice(&few[..k]);
+            dominant_axes(
+                &cloud_of(all),
+                &AxesConfig {
+                    complete_frame: complete,
+                    ..Default::default()
+                },
+            )
+            .unwrap()
+        };
+        let axes = with(30, true);
+        assert_eq!(axes.directions.len(), 3);
+        assert_eq!(axes.num_manhattan, 3);
+        assert!(
+            axes.directions[2].dot(&c).abs() > 0.9998,
+            "{:?}",
+            axes.directions[2]
+        );
+        assert!(
+            matches!(axes.warnings[..], [AxesWarning::CompletedThird(n)] if (25..=30).contains(&n))
+        );
+        // Off, or only 5 confirming normals: two directions and the usual warning.
+        for axes in [with(30, false), with(5, true)] {
+            assert_eq!(axes.directions.len(), 2);
+            assert_eq!(axes.warnings, vec![AxesWarning::FewerThanThree(2)]);
+        }
     }
 
     #[test]

@@ -50,6 +50,13 @@ pub enum Kernel {
 pub struct HypothesesConfig {
     /// A point votes for direction `d_k` if its normal is within this angle (degrees) of ±d_k.
     pub normal_tolerance_deg: f64,
+    /// Normal tolerance (degrees) for the third axis when it was completed as d1 × d2
+    /// ([`crate::axes::AxesConfig::complete_frame`]): no histogram peak supports that axis, so
+    /// points whose noisy normals happen to lie within `normal_tolerance_deg` of it are mostly
+    /// edge and corner points of the other planes, and their mean-shift modes are spurious
+    /// planes (corridor: five along the walls). 0 = no point-based hypotheses along it (the
+    /// photo-consistency sweep still proposes its planes).
+    pub completed_axis_tolerance_deg: f64,
     /// Mean-shift bandwidth in units of the sampling scale `R` (paper: R or 2R).
     pub bandwidth_r: f64,
     /// Mean-shift kernel.
@@ -76,6 +83,7 @@ impl Default for HypothesesConfig {
     fn default() -> Self {
         HypothesesConfig {
             normal_tolerance_deg: 25.0,
+            completed_axis_tolerance_deg: 0.0,
             bandwidth_r: 2.0,
             kernel: Kernel::Flat,
             min_support: 50,
@@ -97,6 +105,12 @@ impl HypothesesConfig {
             return bad(format!(
                 "normal_tolerance_deg = {} must be in (0, 90)",
                 self.normal_tolerance_deg
+            ));
+        }
+        if !(0.0..90.0).contains(&self.completed_axis_tolerance_deg) {
+            return bad(format!(
+                "completed_axis_tolerance_deg = {} must be in [0, 90)",
+                self.completed_axis_tolerance_deg
             ));
         }
         for (name, v) in [
@@ -321,10 +335,24 @@ pub fn plane_hypotheses(
             )));
         }
         let d = d / len;
+        let completed = k == 2
+            && input
+                .axes
+                .warnings
+                .iter()
+                .any(|w| matches!(w, crate::axes::AxesWarning::CompletedThird(_)));
+        let cos_k = if completed {
+            if config.completed_axis_tolerance_deg <= 0.0 {
+                continue;
+            }
+            config.completed_axis_tolerance_deg.to_radians().cos()
+        } else {
+            cos_tol
+        };
         let offsets: Vec<f64> = (0..n)
             .filter(|&i| {
                 input.confidence[i] >= config.min_confidence
-                    && input.normals[i].dot(&d).abs() >= cos_tol
+                    && input.normals[i].dot(&d).abs() >= cos_k
                     && input.positions[i].iter().all(|v| v.is_finite())
             })
             .map(|i| d.dot(&input.positions[i]))

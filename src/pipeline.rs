@@ -653,6 +653,10 @@ pub struct RunSummary {
     pub directions: Vec<[f64; 3]>,
     /// Angles between them (degrees).
     pub direction_angles_deg: Vec<(usize, usize, f64)>,
+    /// Axial support of each dominant direction (normals within the refine cone).
+    pub direction_support: Vec<usize>,
+    /// Whether d3 was completed as d1 × d2 (`axes.complete_frame`).
+    pub third_axis_completed: bool,
     /// Plane hypotheses.
     pub hypotheses: usize,
     /// Per view: name, candidate labels, energy before/after, cycles, build and solve seconds.
@@ -777,6 +781,12 @@ pub fn run(
             .map(|d| [d.x, d.y, d.z])
             .collect(),
         direction_angles_deg: prepared.axes.pairwise_angles_deg.clone(),
+        direction_support: prepared.axes.support.clone(),
+        third_axis_completed: prepared
+            .axes
+            .warnings
+            .iter()
+            .any(|w| matches!(w, crate::axes::AxesWarning::CompletedThird(_))),
         hypotheses: prepared.hypotheses.len(),
         views: views
             .iter()
