@@ -17,10 +17,9 @@
 use std::time::Instant;
 
 use crate::cost::Cost;
-use crate::maxflow::{GraphBuilder, MaxFlow, Topology};
+use crate::maxflow::{GraphBuilder, Topology};
 use crate::moves::{
-    build_move, label_cost_delta, move_delta, solve_move_fast, BuilderEmit, CycleStats, Solution,
-    SplitMix,
+    build_move, label_cost_delta, move_delta, BuilderEmit, CycleStats, MoveFlow, Solution, SplitMix,
 };
 use crate::mrf::{
     energy_of, feasible, with_terms, DataCost, DataFn, LabelMajorData, Mrf, MrfError, PairFn,
@@ -107,7 +106,7 @@ fn expand<T: Cost, Tp: Topology + Clone, D: DataFn<T>, P: PairFn<T>>(
 ) -> Solution<T::Acc> {
     let num_labels = mrf.num_labels;
     let h = mrf.label_costs.as_deref();
-    let mut mf = h.is_none().then(|| MaxFlow::<T, Tp>::new(topo.clone()));
+    let mut mf = h.is_none().then(|| MoveFlow::<T, Tp>::new(topo));
     let mut energy = energy_of(topo, data, pair, h, &labels).total;
     let initial_energy = energy;
     if h.is_none() {
@@ -164,9 +163,7 @@ fn expand<T: Cost, Tp: Topology + Clone, D: DataFn<T>, P: PairFn<T>>(
                 (c != alpha && feasible(&mrf.feasible, p, alpha)).then_some(alpha)
             };
             let (mut delta, truncated) = match (&mut mf, h) {
-                (Some(mf), _) => {
-                    solve_move_fast(mf, topo, data, pair, &labels, &target, &mut changed)
-                }
+                (Some(mf), _) => mf.solve_move(topo, data, pair, &labels, &target, &mut changed),
                 (None, Some(h)) => solve_move_label_costs(
                     topo,
                     data,

@@ -7,7 +7,7 @@
 //! label. The move's graph is built over all sites (inactive ones are isolated nodes with no
 //! capacity, never touched by the search), so the arc layout is the site graph's own.
 use crate::cost::Cost;
-use crate::maxflow::{GraphBuilder, MaxFlow, Topology};
+use crate::maxflow::{GraphBuilder, GridMaxFlow, MaxFlow, Topology};
 use crate::mrf::{DataFn, PairFn};
 
 /// Statistics of one cycle (one sweep over all labels or label pairs, or over all sites).
@@ -241,12 +241,95 @@ pub(crate) fn label_cost_delta<T: Cost>(
     d
 }
 
-/// Solves one move on the fast path (the site graph's own layout) and returns the true
-/// energy change (data + pairwise; the caller adds label costs), whether the move's graph
-/// needed truncation, and the proposed changes in `changed`.
+/// A max-flow solver the fast move path can rebuild in place: it hands out its topology,
+/// arc capacities and signed terminal capacities, solves, and reports each node's side.
+pub(crate) trait FastFlow<T: Cost> {
+    /// The solver's arc layout (its edge indices must be the site graph's).
+    type Topo: Topology;
+    /// See [`MaxFlow::rebuild`].
+    fn rebuild(&mut self) -> (&Self::Topo, &mut [T], &mut [T]);
+    /// Solves; returns the flow.
+    fn maxflow(&mut self) -> T::Acc;
+    /// Whether `node` is on the sink side (label switches).
+    fn is_sink(&self, node: u32) -> bool;
+}
+
+impl<T: Cost, Tp: Topology> FastFlow<T> for MaxFlow<T, Tp> {
+    type Topo = Tp;
+    fn rebuild(&mut self) -> (&Tp, &mut [T], &mut [T]) {
+        MaxFlow::rebuild(self)
+    }
+    fn maxflow(&mut self) -> T::Acc {
+        MaxFlow::maxflow(self)
+    }
+    #[inline(always)]
+    fn is_sink(&self, node: u32) -> bool {
+        MaxFlow::is_sink(self, node)
+    }
+}
+
+impl<T: Cost> FastFlow<T> for GridMaxFlow<T> {
+    type Topo = crate::maxflow::Grid4Topology;
+    fn rebuild(&mut self) -> (&Self::Topo, &mut [T], &mut [T]) {
+        GridMaxFlow::rebuild(self)
+    }
+    fn maxflow(&mut self) -> T::Acc {
+        GridMaxFlow::maxflow(self)
+    }
+    #[inline(always)]
+    fn is_sink(&self, node: u32) -> bool {
+        GridMaxFlow::is_sink(self, node)
+    }
+}
+
+/// The fast path's solver: the grid-specialised [`GridMaxFlow`] on 4-connected grids,
+/// BK on the site graph's own layout otherwise.
+pub(crate) enum MoveFlow<T: Cost, Tp: Topology> {
+    /// BK over the site graph's layout.
+    General(MaxFlow<T, Tp>),
+    /// 4-connected grid (boxed: the variants differ in size).
+    Grid4(Box<GridMaxFlow<T>>),
+}
+
+impl<T: Cost, Tp: Topology + Clone> MoveFlow<T, Tp> {
+    /// The fastest solver for `topo`.
+    pub fn new(topo: &Tp) -> Self {
+        match topo.grid4_size() {
+            Some((w, h)) => MoveFlow::Grid4(Box::new(GridMaxFlow::new(w, h))),
+            None => MoveFlow::General(MaxFlow::new(topo.clone())),
+        }
+    }
+
+    /// [`solve_move_fast`] with whichever solver this is.
+    pub fn solve_move<D, P, Tg>(
+        &mut self,
+        topo: &Tp,
+        data: &D,
+        pair: &P,
+        labels: &[u32],
+        target: &Tg,
+        changed: &mut Vec<(u32, u32)>,
+    ) -> (T::Acc, bool)
+    where
+        D: DataFn<T>,
+        P: PairFn<T>,
+        Tg: Fn(usize, u32) -> Option<u32>,
+    {
+        match self {
+            MoveFlow::General(mf) => solve_move_fast(mf, topo, data, pair, labels, target, changed),
+            MoveFlow::Grid4(mf) => {
+                solve_move_fast(&mut **mf, topo, data, pair, labels, target, changed)
+            }
+        }
+    }
+}
+
+/// Solves one move on the fast path (the solver's layout, written in place) and returns
+/// the true energy change (data + pairwise; the caller adds label costs), whether the
+/// move's graph needed truncation, and the proposed changes in `changed`.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn solve_move_fast<T, Tp, D, P, Tg>(
-    mf: &mut MaxFlow<T, Tp>,
+pub(crate) fn solve_move_fast<T, Tp, F, D, P, Tg>(
+    mf: &mut F,
     topo: &Tp,
     data: &D,
     pair: &P,
@@ -257,6 +340,7 @@ pub(crate) fn solve_move_fast<T, Tp, D, P, Tg>(
 where
     T: Cost,
     Tp: Topology,
+    F: FastFlow<T>,
     D: DataFn<T>,
     P: PairFn<T>,
     Tg: Fn(usize, u32) -> Option<u32>,

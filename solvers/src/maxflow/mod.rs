@@ -32,7 +32,10 @@ mod topology;
 
 pub use bk::{MaxFlow, Segment};
 pub use grid4::GridMaxFlow;
-pub use topology::{Connectivity, CsrTopology, GridArcs, GridTopology, Topology, GRID_DIRECTIONS};
+pub use topology::{
+    Connectivity, CsrTopology, Grid4Arcs, Grid4Topology, GridArcs, GridTopology, Topology,
+    GRID_DIRECTIONS,
+};
 
 use crate::cost::Cost;
 
