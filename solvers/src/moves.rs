@@ -252,6 +252,19 @@ pub(crate) trait FastFlow<T: Cost> {
     fn maxflow(&mut self) -> T::Acc;
     /// Whether `node` is on the sink side (label switches).
     fn is_sink(&self, node: u32) -> bool;
+    /// Writes the move's graph over the whole network (see [`build_move`]); returns
+    /// whether a pair term was truncated.
+    fn build_move<D, P, Tg>(&mut self, data: &D, pair: &P, labels: &[u32], target: &Tg) -> bool
+    where
+        D: DataFn<T>,
+        P: PairFn<T>,
+        Tg: Fn(usize, u32) -> Option<u32>,
+    {
+        let (mtopo, cap, tr) = self.rebuild();
+        tr.fill(T::ZERO);
+        let mut em = FastEmit { cap, tr };
+        build_move(mtopo, data, pair, labels, target, &mut em)
+    }
 }
 
 impl<T: Cost, Tp: Topology> FastFlow<T> for MaxFlow<T, Tp> {
@@ -280,6 +293,147 @@ impl<T: Cost> FastFlow<T> for GridMaxFlow<T> {
     fn is_sink(&self, node: u32) -> bool {
         GridMaxFlow::is_sink(self, node)
     }
+    fn build_move<D, P, Tg>(&mut self, data: &D, pair: &P, labels: &[u32], target: &Tg) -> bool
+    where
+        D: DataFn<T>,
+        P: PairFn<T>,
+        Tg: Fn(usize, u32) -> Option<u32>,
+    {
+        let (topo, cap, tr) = GridMaxFlow::rebuild(self);
+        build_move_grid4(
+            topo.width(),
+            topo.height(),
+            data,
+            pair,
+            labels,
+            target,
+            cap,
+            tr,
+        )
+    }
+}
+
+/// The pair term of the move on edge `e = (p, q)`, `p < q` (current labels `cp`, `cq`,
+/// targets `tp`, `tq`): the capacity of `p → q` (paid for `x_p = 0, x_q = 1`) and the unary
+/// shares of `p` and `q`, as in [`build_move`].
+#[inline(always)]
+fn grid_edge<T, P>(
+    pair: &P,
+    truncated: &mut bool,
+    (p, q, e): (usize, usize, usize),
+    (cp, tp): (u32, Option<u32>),
+    (cq, tq): (u32, Option<u32>),
+) -> (T, T, T)
+where
+    T: Cost,
+    P: PairFn<T>,
+{
+    match (tp, tq) {
+        (Some(t), Some(u)) => {
+            let [ea, eb, ec, ed] = pair.quad(p, q, e, cp, cq, t, u);
+            // Submodular iff A + D <= B + C; otherwise lower A (Rother et al. 2005).
+            let ea = if ea + ed > eb + ec {
+                *truncated = true;
+                eb + ec - ed
+            } else {
+                ea
+            };
+            (eb + ec - ea - ed, ec - ea, ed - ec)
+        }
+        (Some(t), None) => (
+            T::ZERO,
+            pair.v(p, q, e, t, cq) - pair.v(p, q, e, cp, cq),
+            T::ZERO,
+        ),
+        (None, Some(u)) => (
+            T::ZERO,
+            T::ZERO,
+            pair.v(p, q, e, cp, u) - pair.v(p, q, e, cp, cq),
+        ),
+        (None, None) => (T::ZERO, T::ZERO, T::ZERO),
+    }
+}
+
+/// [`build_move`] for a 4-connected grid in [`Grid4Topology`](crate::maxflow::Grid4Topology)
+/// layout (`cap[d * n + p]`), row by row: each site's terminal capacity is summed in a
+/// register from its data term, its right and down edges and the shares its left and upper
+/// neighbours passed on (a carry and a row buffer), and written once.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn build_move_grid4<T, D, P, Tg>(
+    w: usize,
+    h: usize,
+    data: &D,
+    pair: &P,
+    labels: &[u32],
+    target: &Tg,
+    cap: &mut [T],
+    tr: &mut [T],
+) -> bool
+where
+    T: Cost,
+    D: DataFn<T>,
+    P: PairFn<T>,
+    Tg: Fn(usize, u32) -> Option<u32>,
+{
+    let n = w * h;
+    assert!(labels.len() == n && tr.len() == n && cap.len() == 4 * n);
+    let mut truncated = false;
+    let mut from_above = vec![T::ZERO; w];
+    // Targets of rows y and y + 1 (each site's target is evaluated once).
+    let mut t_cur: Vec<Option<u32>> = (0..w).map(|x| target(x, labels[x])).collect();
+    let mut t_next: Vec<Option<u32>> = vec![None; w];
+    for y in 0..h {
+        let r = y * w;
+        if y + 1 < h {
+            for (x, t) in t_next.iter_mut().enumerate() {
+                let q = r + w + x;
+                *t = target(q, labels[q]);
+            }
+        }
+        let mut from_left = T::ZERO;
+        for x in 0..w {
+            let p = r + x;
+            let cp = labels[p];
+            let tp = t_cur[x];
+            let mut acc = from_left + from_above[x];
+            if let Some(t) = tp {
+                acc += data.d(p, t) - data.d(p, cp);
+            }
+            from_left = T::ZERO;
+            if x + 1 < w {
+                let q = p + 1;
+                let (c, up, uq) = grid_edge(
+                    pair,
+                    &mut truncated,
+                    (p, q, 2 * p),
+                    (cp, tp),
+                    (labels[q], t_cur[x + 1]),
+                );
+                cap[p] = c;
+                cap[n + q] = T::ZERO;
+                acc += up;
+                from_left = uq;
+            }
+            if y + 1 < h {
+                let q = p + w;
+                let (c, up, uq) = grid_edge(
+                    pair,
+                    &mut truncated,
+                    (p, q, 2 * p + 1),
+                    (cp, tp),
+                    (labels[q], t_next[x]),
+                );
+                cap[2 * n + p] = c;
+                cap[3 * n + q] = T::ZERO;
+                acc += up;
+                from_above[x] = uq;
+            }
+            tr[p] = acc;
+        }
+        std::mem::swap(&mut t_cur, &mut t_next);
+    }
+    truncated
 }
 
 /// The fast path's solver: the grid-specialised [`GridMaxFlow`] on 4-connected grids,
@@ -345,12 +499,7 @@ where
     P: PairFn<T>,
     Tg: Fn(usize, u32) -> Option<u32>,
 {
-    let truncated = {
-        let (mtopo, cap, tr) = mf.rebuild();
-        tr.fill(T::ZERO);
-        let mut em = FastEmit { cap, tr };
-        build_move(mtopo, data, pair, labels, target, &mut em)
-    };
+    let truncated = mf.build_move(data, pair, labels, target);
     mf.maxflow();
     let d = move_delta(
         topo,
