@@ -201,6 +201,11 @@ fn grid4_matches_bk_and_keeps_its_invariants() {
         for n in 0..(w * h) as u32 {
             assert_eq!(g4.segment(n), bk.segment(n), "trial {trial} node {n}");
         }
+        // Float capacities (integer-valued here, so exact).
+        let (mut g4, mut bk) = random_grid::<f64>(&mut rng, w, h);
+        let f = g4.maxflow();
+        g4.check_invariants();
+        assert_eq!(f, bk.maxflow(), "f64 trial {trial}");
     }
 }
 
