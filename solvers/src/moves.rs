@@ -379,57 +379,67 @@ where
     let n = w * h;
     assert!(labels.len() == n && tr.len() == n && cap.len() == 4 * n);
     let mut truncated = false;
+    let (c0, rest) = cap.split_at_mut(n);
+    let (c1, rest) = rest.split_at_mut(n);
+    let (c2, c3) = rest.split_at_mut(n);
     let mut from_above = vec![T::ZERO; w];
     // Targets of rows y and y + 1 (each site's target is evaluated once).
     let mut t_cur: Vec<Option<u32>> = (0..w).map(|x| target(x, labels[x])).collect();
     let mut t_next: Vec<Option<u32>> = vec![None; w];
     for y in 0..h {
         let r = y * w;
-        if y + 1 < h {
+        let down = y + 1 < h;
+        // Row slices (bounds checks hoisted): this row's labels, right, left and down arcs
+        // and terminal capacities; the next row's labels and up arcs (this row's again on
+        // the last row, unused there).
+        let nr = if down { r + w } else { r };
+        let (lab, lab_dn) = (&labels[r..r + w], &labels[nr..nr + w]);
+        if down {
             for (x, t) in t_next.iter_mut().enumerate() {
-                let q = r + w + x;
-                *t = target(q, labels[q]);
+                *t = target(nr + x, lab_dn[x]);
             }
         }
+        let (right, left, dn) = (&mut c0[r..r + w], &mut c1[r..r + w], &mut c2[r..r + w]);
+        let up_dn = &mut c3[nr..nr + w];
+        let trr = &mut tr[r..r + w];
+        let (tc, tn, fa) = (&t_cur[..w], &t_next[..w], &mut from_above[..w]);
         let mut from_left = T::ZERO;
         for x in 0..w {
             let p = r + x;
-            let cp = labels[p];
-            let tp = t_cur[x];
-            let mut acc = from_left + from_above[x];
+            let cp = lab[x];
+            let tp = tc[x];
+            let mut acc = from_left + fa[x];
             if let Some(t) = tp {
                 acc += data.d(p, t) - data.d(p, cp);
             }
             from_left = T::ZERO;
             if x + 1 < w {
-                let q = p + 1;
                 let (c, up, uq) = grid_edge(
                     pair,
                     &mut truncated,
-                    (p, q, 2 * p),
+                    (p, p + 1, 2 * p),
                     (cp, tp),
-                    (labels[q], t_cur[x + 1]),
+                    (lab[x + 1], tc[x + 1]),
                 );
-                cap[p] = c;
-                cap[n + q] = T::ZERO;
+                right[x] = c;
+                left[x + 1] = T::ZERO;
                 acc += up;
                 from_left = uq;
             }
-            if y + 1 < h {
-                let q = p + w;
+            if down {
                 let (c, up, uq) = grid_edge(
                     pair,
                     &mut truncated,
-                    (p, q, 2 * p + 1),
+                    (p, p + w, 2 * p + 1),
                     (cp, tp),
-                    (labels[q], t_next[x]),
+                    (lab_dn[x], tn[x]),
                 );
-                cap[2 * n + p] = c;
-                cap[3 * n + q] = T::ZERO;
+                dn[x] = c;
+                up_dn[x] = T::ZERO;
                 acc += up;
-                from_above[x] = uq;
+                fa[x] = uq;
             }
-            tr[p] = acc;
+            trr[x] = acc;
         }
         std::mem::swap(&mut t_cur, &mut t_next);
     }
@@ -449,7 +459,11 @@ impl<T: Cost, Tp: Topology + Clone> MoveFlow<T, Tp> {
     /// The fastest solver for `topo`.
     pub fn new(topo: &Tp) -> Self {
         match topo.grid4_size() {
-            Some((w, h)) => MoveFlow::Grid4(Box::new(GridMaxFlow::new(w, h))),
+            Some((w, h)) => {
+                let mut g = GridMaxFlow::new(w, h);
+                g.set_length_three_paths(false);
+                MoveFlow::Grid4(Box::new(g))
+            }
             None => MoveFlow::General(MaxFlow::new(topo.clone())),
         }
     }

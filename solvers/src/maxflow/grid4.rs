@@ -69,6 +69,8 @@ pub struct GridMaxFlow<T: Cost> {
     orphans: Vec<u32>,
     time: u32,
     flow: T::Acc,
+    /// Whether the initialisation saturates length-three paths.
+    sat3: bool,
     /// Row scratch of the initialisation.
     push: Vec<T>,
     sign: Vec<u8>,
@@ -97,9 +99,18 @@ impl<T: Cost> GridMaxFlow<T> {
             orphans: Vec::new(),
             time: 0,
             flow: T::Acc::default(),
+            sat3: true,
             push: vec![T::ZERO; width],
             sign: vec![0; 3 * (width + 2)],
         }
+    }
+
+    /// Whether the initialisation also saturates the length-three paths source → p → z → q
+    /// → sink through balanced nodes (default on). It pays on image segmentation (1024²
+    /// benchmark: 30 % of the augmentations, −8 % time) but not on α-expansion moves
+    /// (there it costs about what it saves, +4 %), where it is switched off.
+    pub fn set_length_three_paths(&mut self, on: bool) {
+        self.sat3 = on;
     }
 
     /// The arc layout.
@@ -312,7 +323,7 @@ impl<T: Cost> GridMaxFlow<T> {
             if y < h {
                 self.sat2_rows(y);
             }
-            if (1..=h).contains(&y) {
+            if self.sat3 && (1..=h).contains(&y) {
                 self.sat3_row(y - 1);
             }
             if y >= 3 {
