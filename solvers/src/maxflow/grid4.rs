@@ -247,17 +247,16 @@ impl<T: Cost> GridMaxFlow<T> {
         i.wrapping_add(at!(self.off, d as usize))
     }
 
-    /// Recomputes the residual bits of arc `(i, d)`: out-bit `d` of `i`, in-bit `d ^ 1` of
-    /// its head.
+    /// Residual bits after pushing flow along arc `(tail, d)` to `head`: the reverse arc
+    /// is open now (out-bit `d ^ 1` of `head`, in-bit `d` of `tail`); if `saturated`, the
+    /// arc itself is closed (out-bit `d` of `tail`, in-bit `d ^ 1` of `head`).
     #[inline(always)]
-    fn update_bits(&mut self, i: u32, d: u32) {
-        let j = self.nb(i, d);
-        let pos = at!(self.cap, self.ci(i, d)).is_pos() as u8;
-        let r = &mut at_mut!(self.resid, i as usize);
-        *r = (*r & !(1 << d)) | (pos << d);
-        let r = &mut at_mut!(self.resid, j as usize);
-        let b = 4 + (d ^ 1);
-        *r = (*r & !(1 << b)) | (pos << b);
+    fn pushed_bits(&mut self, tail: u32, d: u32, head: u32, saturated: bool) {
+        let s = saturated as u8;
+        let r = &mut at_mut!(self.resid, tail as usize);
+        *r = (*r | (1 << (4 + d))) & !(s << d);
+        let r = &mut at_mut!(self.resid, head as usize);
+        *r = (*r | (1 << (d ^ 1))) & !(s << (4 + (d ^ 1)));
     }
 
     #[inline(always)]
@@ -665,8 +664,8 @@ impl<T: Cost> GridMaxFlow<T> {
         let (fa, fs) = (self.ci(a_tail, a_dir), self.ci(a_head, a_dir ^ 1));
         at_mut!(self.cap, fa) -= b;
         at_mut!(self.cap, fs) += b;
-        self.update_bits(a_tail, a_dir);
-        self.update_bits(a_head, a_dir ^ 1);
+        let sat = !at!(self.cap, fa).is_pos();
+        self.pushed_bits(a_tail, a_dir, a_head, sat);
         let mut x = a_tail;
         loop {
             let c = (at!(self.state, x as usize) & CODE) as u32;
@@ -677,9 +676,9 @@ impl<T: Cost> GridMaxFlow<T> {
             let (down, up) = (self.ci(p, c ^ 1), self.ci(x, c));
             at_mut!(self.cap, down) -= b;
             at_mut!(self.cap, up) += b;
-            self.update_bits(p, c ^ 1);
-            self.update_bits(x, c);
-            if !at!(self.cap, down).is_pos() {
+            let sat = !at!(self.cap, down).is_pos();
+            self.pushed_bits(p, c ^ 1, x, sat);
+            if sat {
                 self.set_code(x, ORPHAN);
                 self.orphans.push(x);
             }
@@ -700,9 +699,9 @@ impl<T: Cost> GridMaxFlow<T> {
             let (up, down) = (self.ci(x, c), self.ci(p, c ^ 1));
             at_mut!(self.cap, up) -= b;
             at_mut!(self.cap, down) += b;
-            self.update_bits(x, c);
-            self.update_bits(p, c ^ 1);
-            if !at!(self.cap, up).is_pos() {
+            let sat = !at!(self.cap, up).is_pos();
+            self.pushed_bits(x, c, p, sat);
+            if sat {
                 self.set_code(x, ORPHAN);
                 self.orphans.push(x);
             }
