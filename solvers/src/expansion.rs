@@ -74,7 +74,10 @@ impl<T: Cost> Mrf<'_, T> {
             None => self.data_argmin()?,
         };
         let mrf = self;
-        if let (DataCost::Dense(d), true) = (&mrf.data, mrf.num_labels > 2) {
+        // A site's cost row spans more than one cache line beyond 64 bytes (16 `i32`s);
+        // below that a move reads D(p, α) and D(p, f_p) from the same line anyway.
+        let row_bytes = mrf.num_labels * std::mem::size_of::<T>();
+        if let (DataCost::Dense(d), true) = (&mrf.data, row_bytes > 64) {
             // Label-major copy of the data costs (memory: one more sites × labels array):
             // each move then streams D(·, α) instead of touching every site's cost row.
             let mut buf = Vec::new();
