@@ -24,8 +24,8 @@
 //!   direction by direction) and then the length-three paths source → p → z → q → sink
 //!   through balanced nodes `z`, and activates only the *frontier*: nodes with a residual
 //!   arc in their growth direction to a node outside their tree. On image grids most of the
-//!   flow takes such short paths; on the 1024² segmentation benchmark the initialisation
-//!   leaves 30 % of BK's augmentations and 45 % of its growth steps.
+//!   flow takes such short paths; on the 1024² segmentation benchmark what is left needs
+//!   about 30 % of the generic BK's augmentations and 40 % of its growth steps.
 //!
 //! A second [`GridMaxFlow::maxflow`] after capacity changes is correct (the residual
 //! network is solved again, the flow accumulates) but builds new search trees instead of
@@ -47,7 +47,7 @@ const NONE: u32 = u32::MAX;
 ///
 /// Memory per node for capacity type `T`: `5 · size_of::<T>()` (four arc residuals and the
 /// terminal residual) + 1 (state) + 1 (residual bits) + 8 (time stamp, distance) + 4
-/// (queue) + 1 (the topology's boundary mask) = 35 bytes for `i32`, i.e. 15 bytes per node
+/// (queue) + 1 (the topology's boundary mask) = 35 bytes for `i32`, i.e. 19 bytes per node
 /// plus 8 per undirected edge (two 4-byte residuals; the slots of arcs leaving the grid are
 /// allocated but unused). Initialisation scratch: a few rows.
 #[derive(Clone, Debug)]
