@@ -6,14 +6,16 @@
 //! the move is kept only if the *true* energy drops, so the energy never increases.
 //!
 //! Speed: the move's graph reuses the site graph's arc layout (implicit neighbour arcs on
-//! grids, 32-bit indices), is written in one pass without reallocation, and moves that are
+//! grids, 32-bit indices; on 4-connected grids the grid-specialised
+//! [`GridMaxFlow`](crate::maxflow::GridMaxFlow), filled by a row-wise builder), is written
+//! in one pass without reallocation, and moves that are
 //! known to fail are skipped: a label whose last expansion failed is not retried until some
 //! other move has changed the labelling, and (for exact integer costs, when no truncation
 //! was needed) a label whose expansion just succeeded is known to be optimal w.r.t. its own
 //! move. Before the first cycle a few warm-start sweeps move sites to a neighbour's label
 //! when that lowers the energy ([`Mrf::with_warm_start`]), so the first cycle (the costly
-//! one from a noisy start) pushes much less flow; dense data costs are read from a
-//! label-major copy so that a move streams `D(·, α)`.
+//! one from a noisy start) pushes much less flow; dense data costs with rows longer than a
+//! cache line are read from a label-major copy so that a move streams `D(·, α)`.
 use std::time::Instant;
 
 use crate::cost::Cost;
