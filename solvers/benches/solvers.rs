@@ -1,7 +1,7 @@
 //! Criterion benchmarks: BK max-flow on a synthetic segmentation grid (grid layout vs CSR
 //! layout) and α-expansion on a noisy piecewise-constant labelling grid.
 use criterion::{criterion_group, criterion_main, Criterion};
-use planemap_solvers::maxflow::{GraphBuilder, Topology};
+use planemap_solvers::maxflow::{GraphBuilder, GridMaxFlow, Topology};
 use planemap_solvers::{Connectivity, DataCost, ExpansionConfig, MaxFlow, Mrf, Smoothness};
 
 struct Rng(u64);
@@ -49,6 +49,17 @@ fn bench_maxflow(c: &mut Criterion) {
     g.bench_function("grid_layout", |b| {
         b.iter(|| {
             let mut mf = MaxFlow::<i32, _>::grid(w, h, Connectivity::Four);
+            for p in 0..w * h {
+                mf.add_tweights(p as u32, t[p].1, t[p].0);
+                mf.set_grid_edge(p as u32, 0, e[p][0], e[p][0]);
+                mf.set_grid_edge(p as u32, 2, e[p][1], e[p][1]);
+            }
+            mf.maxflow()
+        })
+    });
+    g.bench_function("grid4_specialised", |b| {
+        b.iter(|| {
+            let mut mf = GridMaxFlow::<i32>::new(w, h);
             for p in 0..w * h {
                 mf.add_tweights(p as u32, t[p].1, t[p].0);
                 mf.set_grid_edge(p as u32, 0, e[p][0], e[p][0]);

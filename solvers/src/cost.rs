@@ -91,7 +91,17 @@ macro_rules! impl_int {
             }
             #[inline(always)]
             fn from_f64(v: f64) -> Self {
-                v.round() as $t
+                // Round half away from zero, saturating, as `v.round() as $t`, but without
+                // the libm call `f64::round` is on baseline x86-64: below 2^52 truncation
+                // and the remainder are exact.
+                if v.abs() < 4_503_599_627_370_496.0 {
+                    let t = v as i64;
+                    let r = v - t as f64;
+                    let t = t + (r >= 0.5) as i64 - (r <= -0.5) as i64;
+                    t.clamp(<$t>::MIN as i64, <$t>::MAX as i64) as $t
+                } else {
+                    v.round() as $t
+                }
             }
             #[inline(always)]
             fn to_f64(self) -> f64 {
@@ -138,6 +148,22 @@ mod tests {
     fn widen_and_round() {
         assert_eq!(i32::from_f64(2.5), 3);
         assert_eq!(i32::from_f64(-2.4), -2);
+        for v in [
+            -2.5,
+            0.49999999999999994,
+            -0.5,
+            1.5,
+            2.4999,
+            1e20,
+            -1e20,
+            3e9,
+            f64::NAN,
+            4503599627370497.0,
+            -7.0e15 - 0.5,
+        ] {
+            assert_eq!(i32::from_f64(v), v.round() as i32, "{v}");
+            assert_eq!(i64::from_f64(v), v.round() as i64, "{v}");
+        }
         assert_eq!(i32::MAX.widen() + 1, 2_147_483_648i64);
         assert_eq!(3i32.min_of(-4), -4);
         assert!(1e-30f32.is_pos());

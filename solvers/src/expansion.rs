@@ -6,21 +6,22 @@
 //! the move is kept only if the *true* energy drops, so the energy never increases.
 //!
 //! Speed: the move's graph reuses the site graph's arc layout (implicit neighbour arcs on
-//! grids, 32-bit indices), is written in one pass without reallocation, and moves that are
+//! grids, 32-bit indices; on 4-connected grids the grid-specialised
+//! [`GridMaxFlow`](crate::maxflow::GridMaxFlow), filled by a row-wise builder), is written
+//! in one pass without reallocation, and moves that are
 //! known to fail are skipped: a label whose last expansion failed is not retried until some
 //! other move has changed the labelling, and (for exact integer costs, when no truncation
 //! was needed) a label whose expansion just succeeded is known to be optimal w.r.t. its own
 //! move. Before the first cycle a few warm-start sweeps move sites to a neighbour's label
 //! when that lowers the energy ([`Mrf::with_warm_start`]), so the first cycle (the costly
-//! one from a noisy start) pushes much less flow; dense data costs are read from a
-//! label-major copy so that a move streams `D(·, α)`.
+//! one from a noisy start) pushes much less flow; dense data costs with rows longer than a
+//! cache line are read from a label-major copy so that a move streams `D(·, α)`.
 use std::time::Instant;
 
 use crate::cost::Cost;
-use crate::maxflow::{GraphBuilder, MaxFlow, Topology};
+use crate::maxflow::{GraphBuilder, Topology};
 use crate::moves::{
-    build_move, label_cost_delta, move_delta, solve_move_fast, BuilderEmit, CycleStats, Solution,
-    SplitMix,
+    build_move, label_cost_delta, move_delta, BuilderEmit, CycleStats, MoveFlow, Solution, SplitMix,
 };
 use crate::mrf::{
     energy_of, feasible, with_terms, DataCost, DataFn, LabelMajorData, Mrf, MrfError, PairFn,
@@ -75,7 +76,10 @@ impl<T: Cost> Mrf<'_, T> {
             None => self.data_argmin()?,
         };
         let mrf = self;
-        if let (DataCost::Dense(d), true) = (&mrf.data, mrf.num_labels > 2) {
+        // A site's cost row spans more than one cache line beyond 64 bytes (16 `i32`s);
+        // below that a move reads D(p, α) and D(p, f_p) from the same line anyway.
+        let row_bytes = mrf.num_labels * std::mem::size_of::<T>();
+        if let (DataCost::Dense(d), true) = (&mrf.data, row_bytes > 64) {
             // Label-major copy of the data costs (memory: one more sites × labels array):
             // each move then streams D(·, α) instead of touching every site's cost row.
             let mut buf = Vec::new();
@@ -107,7 +111,7 @@ fn expand<T: Cost, Tp: Topology + Clone, D: DataFn<T>, P: PairFn<T>>(
 ) -> Solution<T::Acc> {
     let num_labels = mrf.num_labels;
     let h = mrf.label_costs.as_deref();
-    let mut mf = h.is_none().then(|| MaxFlow::<T, Tp>::new(topo.clone()));
+    let mut mf = h.is_none().then(|| MoveFlow::<T, Tp>::new(topo));
     let mut energy = energy_of(topo, data, pair, h, &labels).total;
     let initial_energy = energy;
     if h.is_none() {
@@ -160,13 +164,13 @@ fn expand<T: Cost, Tp: Topology + Clone, D: DataFn<T>, P: PairFn<T>>(
                 continue;
             }
             stats.moves_tried += 1;
+            // α's feasibility set, looked up once per move.
+            let fa = mrf.feasible[ai].as_deref();
             let target = |p: usize, c: u32| {
-                (c != alpha && feasible(&mrf.feasible, p, alpha)).then_some(alpha)
+                (c != alpha && fa.is_none_or(|b| (b[p >> 6] >> (p & 63)) & 1 == 1)).then_some(alpha)
             };
             let (mut delta, truncated) = match (&mut mf, h) {
-                (Some(mf), _) => {
-                    solve_move_fast(mf, topo, data, pair, &labels, &target, &mut changed)
-                }
+                (Some(mf), _) => mf.solve_move(topo, data, pair, &labels, &target, &mut changed),
                 (None, Some(h)) => solve_move_label_costs(
                     topo,
                     data,
@@ -653,6 +657,86 @@ mod tests {
             used.dedup();
             assert_eq!(used.len(), 1, "trial {trial}: {:?}", sol1.labels);
             assert_eq!(sol1.energy, brute_force(&mrf1));
+        }
+    }
+
+    /// The 4-connected grid path (grid-specialised max-flow and move builder) gives the
+    /// general path's labels on many random instances: Potts-shaped tables, truncated
+    /// linear, a non-metric closure (truncated moves), per-edge weights, feasibility.
+    #[test]
+    fn grid4_path_matches_general_path_on_random_instances() {
+        let mut rng = Rng(91);
+        for trial in 0..60 {
+            let (w, h) = (1 + rng.below(7) as usize, 1 + rng.below(6) as usize);
+            let l = 2 + rng.below(4) as usize;
+            let n = w * h;
+            let data = random_data(&mut rng, n, l);
+            let lambda = 1 + rng.below(6) as i32;
+            let potts: Vec<i32> = (0..l * l)
+                .map(|i| if i / l == i % l { 0 } else { lambda })
+                .collect();
+            let kind = trial % 3;
+            fn smooth(kind: u64, potts: &[i32]) -> Smoothness<'_, i32> {
+                match kind {
+                    0 => Smoothness::Table(potts),
+                    1 => Smoothness::TruncatedLinear {
+                        scale: 2,
+                        truncation: 5,
+                    },
+                    _ => Smoothness::Fn(Box::new(|p, q, a, b| {
+                        if a == b {
+                            0
+                        } else {
+                            ((a * 7 + b * 7 + (p + q) as u32) % 9) as i32
+                        }
+                    })),
+                }
+            }
+            let grid = Mrf::grid(w, h, Connectivity::Four, l, DataCost::Dense(&data)).unwrap();
+            let weights: Vec<i32> = (0..grid.num_edge_slots())
+                .map(|_| rng.below(4) as i32)
+                .collect();
+            let sites: Vec<u32> = (0..n as u32).filter(|_| rng.below(3) > 0).collect();
+            let mut edges = Vec::new();
+            let mut gw = Vec::new();
+            for y in 0..h {
+                for x in 0..w {
+                    let p = (y * w + x) as u32;
+                    for (dir, dx, dy) in [(0, 1, 0), (2, 0, 1)] {
+                        if x + dx < w && y + dy < h {
+                            edges.push([p, p + (dy * w + dx) as u32]);
+                            gw.push(weights[grid.grid_edge_slot(x, y, dir).unwrap()]);
+                        }
+                    }
+                }
+            }
+            let grid = grid
+                .with_smoothness(smooth(kind, &potts))
+                .unwrap()
+                .with_edge_weights(&weights)
+                .unwrap()
+                .with_feasible_sites(1, &sites)
+                .unwrap();
+            let general = Mrf::general(n, &edges, l, DataCost::Dense(&data))
+                .unwrap()
+                .with_smoothness(smooth(kind, &potts))
+                .unwrap()
+                .with_edge_weights(&gw)
+                .unwrap()
+                .with_feasible_sites(1, &sites)
+                .unwrap();
+            let init: Vec<u32> = (0..n)
+                .map(|p| if sites.contains(&(p as u32)) { 1 } else { 0 })
+                .collect();
+            let a = grid
+                .expansion(&ExpansionConfig::default(), Some(&init))
+                .unwrap();
+            let b = general
+                .expansion(&ExpansionConfig::default(), Some(&init))
+                .unwrap();
+            assert_eq!(a.labels, b.labels, "trial {trial} ({w}x{h}, {l} labels)");
+            assert_eq!(a.energy, b.energy);
+            assert_eq!(a.energy, general.energy(&a.labels).unwrap().total);
         }
     }
 

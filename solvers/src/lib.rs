@@ -1,7 +1,7 @@
 //! `planemap-solvers`: discrete optimisation for labelling problems.
 //!
-//! Max-flow / min-cut (Boykov–Kolmogorov, [`maxflow`]) and α-expansion graph cuts
-//! ([`Mrf::expansion`]), with α-β swap ([`Mrf::swap`]) and ICM ([`Mrf::icm`]) as baselines,
+//! Max-flow / min-cut (Boykov–Kolmogorov, [`maxflow`]; [`maxflow::GridMaxFlow`] specialised
+//! to 4-connected grids) and α-expansion graph cuts ([`Mrf::expansion`]), with α-β swap ([`Mrf::swap`]) and ICM ([`Mrf::icm`]) as baselines,
 //! and the `.npy` exchange format ([`exchange`]) shared with other solvers. No geometry and
 //! no images: usable by anyone labelling a graph.
 //!

@@ -324,7 +324,16 @@ impl<'a, T: Cost> Mrf<'a, T> {
                         expected: l * l,
                     });
                 }
-                Pairwise::Table(t.to_vec())
+                // A Potts-shaped table (zero diagonal, one off-diagonal value) takes the
+                // Potts path: same costs, no table lookups in the move loops.
+                let lambda = if l > 1 { t[1] } else { T::ZERO };
+                let potts =
+                    (0..l * l).all(|i| t[i] == if i / l == i % l { T::ZERO } else { lambda });
+                if potts {
+                    Pairwise::Potts(lambda)
+                } else {
+                    Pairwise::Table(t.to_vec())
+                }
             }
             Smoothness::Fn(f) => Pairwise::Fn(f),
         };
@@ -567,6 +576,19 @@ impl<T: Cost> DataFn<T> for FnData<'_, '_, T> {
 pub(crate) trait PairFn<T>: Sync {
     /// `w_e · V(p, q, a, b)` for the edge `e` between sites `p < q`.
     fn v(&self, p: usize, q: usize, e: usize, a: u32, b: u32) -> T;
+    /// The four terms of a binary move on edge `e`: `v(a, b)`, `v(a, u)`, `v(t, b)`,
+    /// `v(t, u)` (current labels `a`, `b`; targets `t`, `u`). Representations override it
+    /// to read the edge weight once.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn quad(&self, p: usize, q: usize, e: usize, a: u32, b: u32, t: u32, u: u32) -> [T; 4] {
+        [
+            self.v(p, q, e, a, b),
+            self.v(p, q, e, a, u),
+            self.v(p, q, e, t, b),
+            self.v(p, q, e, t, u),
+        ]
+    }
 }
 pub(crate) struct PottsPair<'w, T> {
     pub(crate) lambda: T,
@@ -575,14 +597,25 @@ pub(crate) struct PottsPair<'w, T> {
 impl<T: Cost> PairFn<T> for PottsPair<'_, T> {
     #[inline(always)]
     fn v(&self, _p: usize, _q: usize, e: usize, a: u32, b: u32) -> T {
+        // Computed before the label test so that the test becomes a select, not a branch.
+        let c = match self.w {
+            Some(w) => w[e] * self.lambda,
+            None => self.lambda,
+        };
         if a == b {
             T::ZERO
         } else {
-            match self.w {
-                Some(w) => w[e] * self.lambda,
-                None => self.lambda,
-            }
+            c
         }
+    }
+    #[inline(always)]
+    fn quad(&self, _p: usize, _q: usize, e: usize, a: u32, b: u32, t: u32, u: u32) -> [T; 4] {
+        let c = match self.w {
+            Some(w) => w[e] * self.lambda,
+            None => self.lambda,
+        };
+        let sel = |x: u32, y: u32| if x == y { T::ZERO } else { c };
+        [sel(a, b), sel(a, u), sel(t, b), sel(t, u)]
     }
 }
 pub(crate) struct TablePair<'w, T> {
@@ -597,6 +630,24 @@ impl<T: Cost> PairFn<T> for TablePair<'_, T> {
         match self.w {
             Some(w) => w[e] * c,
             None => c,
+        }
+    }
+    #[inline(always)]
+    fn quad(&self, _p: usize, _q: usize, e: usize, a: u32, b: u32, t: u32, u: u32) -> [T; 4] {
+        let l = self.labels;
+        let (a, b, t, u) = (a as usize, b as usize, t as usize, u as usize);
+        let v = [
+            self.table[a * l + b],
+            self.table[a * l + u],
+            self.table[t * l + b],
+            self.table[t * l + u],
+        ];
+        match self.w {
+            Some(w) => {
+                let we = w[e];
+                v.map(|c| we * c)
+            }
+            None => v,
         }
     }
 }

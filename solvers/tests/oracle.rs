@@ -3,7 +3,7 @@
 //! capacities.
 use petgraph::algo::dinics;
 use petgraph::graph::{DiGraph, NodeIndex};
-use planemap_solvers::maxflow::{Connectivity, GraphBuilder, MaxFlow, Topology};
+use planemap_solvers::maxflow::{Connectivity, GraphBuilder, GridMaxFlow, MaxFlow, Topology};
 use proptest::prelude::*;
 
 /// A network with non-negative terminal capacities (s→i, i→t) and directed edge pairs.
@@ -148,6 +148,132 @@ fn grids_match_dinic() {
             let want = net.oracle();
             assert_eq!(flow, want, "{w}x{h}");
             assert_eq!(net.cut(&|i| mf.is_sink(i as u32)), want);
+        }
+    }
+}
+
+/// A random `w × h` 4-connected grid network for [`GridMaxFlow`]: terminal and edge
+/// capacities with many zeros (free nodes, blocked arcs), as a `Net` for the oracle.
+fn grid_net_strategy() -> impl Strategy<Value = (usize, usize, Net)> {
+    (1usize..11, 1usize..9).prop_flat_map(|(w, h)| {
+        let n = w * h;
+        (
+            prop::collection::vec(0i64..25, n),
+            prop::collection::vec(0i64..25, n),
+            prop::collection::vec((0i64..16, 0i64..16), 2 * n),
+        )
+            .prop_map(move |(s, t, caps)| {
+                // Zero a third of everything: values below 8 become 0.
+                let z = |v: i64| if v < 8 { 0 } else { v - 7 };
+                let mut edges = Vec::new();
+                for p in 0..n {
+                    let (x, y) = (p % w, p / w);
+                    if x + 1 < w {
+                        edges.push((p as u32, p as u32 + 1, z(caps[2 * p].0), z(caps[2 * p].1)));
+                    }
+                    if y + 1 < h {
+                        let (c, r) = caps[2 * p + 1];
+                        edges.push((p as u32, (p + w) as u32, z(c), z(r)));
+                    }
+                }
+                let net = Net {
+                    n,
+                    s: s.into_iter().map(z).collect(),
+                    t: t.into_iter().map(z).collect(),
+                    edges,
+                };
+                (w, h, net)
+            })
+    })
+}
+
+fn grid4_from(w: usize, h: usize, net: &Net) -> GridMaxFlow<i32> {
+    let mut g = GridMaxFlow::<i32>::new(w, h);
+    for i in 0..net.n {
+        g.add_tweights(i as u32, net.s[i] as i32, net.t[i] as i32);
+    }
+    for &(p, q, c, r) in &net.edges {
+        let dir = if q as usize == p as usize + w { 2 } else { 0 };
+        assert!(g.set_grid_edge(p, dir, c as i32, r as i32));
+    }
+    g
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(500))]
+
+    #[test]
+    fn grid4_flow_and_cut_match_dinic((w, h, net) in grid_net_strategy()) {
+        let mut g = grid4_from(w, h, &net);
+        let flow = g.maxflow();
+        let want = net.oracle();
+        prop_assert_eq!(flow, want);
+        prop_assert_eq!(net.cut(&|i| g.is_sink(i as u32)), want);
+        // A second solve of the solved residual network adds nothing.
+        prop_assert_eq!(g.maxflow(), want);
+    }
+
+    #[test]
+    fn grid4_resolve_after_terminal_changes_matches_dinic(
+        (w, h, net) in grid_net_strategy(),
+        changes in prop::collection::vec((0usize..80, 0i64..9, 0i64..9), 1..6),
+    ) {
+        let mut g = grid4_from(w, h, &net);
+        g.maxflow();
+        let mut net = net;
+        for &(i, ds, dt) in &changes {
+            let i = i % net.n;
+            net.s[i] += ds;
+            net.t[i] += dt;
+            g.add_tweights(i as u32, ds as i32, dt as i32);
+        }
+        let flow = g.maxflow();
+        let want = net.oracle();
+        prop_assert_eq!(flow, want);
+        prop_assert_eq!(net.cut(&|i| g.is_sink(i as u32)), want);
+    }
+}
+
+#[test]
+fn grid4_segmentation_grids_match_dinic() {
+    // Larger noisy two-region grids (the benchmark's structure): long augmenting paths,
+    // many orphans, wrap-around of the active queue.
+    let mut seed = 7u64;
+    let mut rnd = |m: i64| {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 33) % m as u64) as i64
+    };
+    for (w, h) in [(64, 48), (33, 70), (128, 9)] {
+        for _ in 0..3 {
+            let n = w * h;
+            let mut net = Net {
+                n,
+                s: vec![0; n],
+                t: vec![0; n],
+                edges: vec![],
+            };
+            for p in 0..n {
+                let (x, y) = (p % w, p / w);
+                let fg = (x / 11 + y / 7) % 2 == 0;
+                let v = if fg { 70 } else { 30 } + rnd(60) - 30;
+                net.s[p] = (v - 30).abs();
+                net.t[p] = (v - 70).abs();
+                if x + 1 < w {
+                    let c = 1 + rnd(30);
+                    net.edges.push((p as u32, p as u32 + 1, c, c));
+                }
+                if y + 1 < h {
+                    let c = 1 + rnd(30);
+                    net.edges.push((p as u32, (p + w) as u32, c, c));
+                }
+            }
+            let mut g = grid4_from(w, h, &net);
+            let flow = g.maxflow();
+            let want = net.oracle();
+            assert_eq!(flow, want, "{w}x{h}");
+            assert_eq!(net.cut(&|i| g.is_sink(i as u32)), want);
         }
     }
 }

@@ -10,7 +10,7 @@ use std::time::Instant;
 use anyhow_free::Result;
 use clap::{Parser, ValueEnum};
 use planemap_solvers::exchange::{read_instance, Instance};
-use planemap_solvers::maxflow::{GraphBuilder, MaxFlow};
+use planemap_solvers::maxflow::{GraphBuilder, GridMaxFlow};
 use planemap_solvers::npy::write_npy_path;
 use planemap_solvers::{
     Connectivity, Cost, DataCost, ExpansionConfig, LabelOrder, Mrf, Smoothness,
@@ -108,7 +108,7 @@ fn solve<T: Cost>(inst: &Instance, args: &Args) -> Result<Outcome> {
         let build_seconds: f64;
         let maxflow_seconds: f64;
         let (flow, labels): (T::Acc, Vec<u32>) = if let Some((w, h, slots)) = &grid {
-            let mut mf = MaxFlow::<T, _>::grid(*w, *h, Connectivity::Four);
+            let mut mf = GridMaxFlow::<T>::new(*w, *h);
             for p in 0..n {
                 mf.add_tweights(p as u32, unary[2 * p + 1], unary[2 * p]);
             }

@@ -8,28 +8,6 @@
 use super::topology::Topology;
 use crate::cost::Cost;
 
-/// Unchecked indexing for the solver's hot loops. Every index is a node or arc produced by
-/// the topology (validated when the network was built) or a stored parent arc, so it is in
-/// range by construction; debug builds still check.
-macro_rules! at {
-    ($v:expr, $i:expr) => {{
-        let i = $i;
-        debug_assert!(i < $v.len());
-        // SAFETY: see the macro's doc: indices come from the topology and are in range.
-        *unsafe { $v.get_unchecked(i) }
-    }};
-}
-macro_rules! at_mut {
-    ($v:expr, $i:expr) => {
-        (*{
-            let i = $i;
-            debug_assert!(i < $v.len());
-            // SAFETY: as for `at!`.
-            unsafe { $v.get_unchecked_mut(i) }
-        })
-    };
-}
-
 const NONE: u32 = u32::MAX;
 const TERMINAL: u32 = u32::MAX - 1;
 const ORPHAN: u32 = u32::MAX - 2;

@@ -3,11 +3,39 @@
 //! [`MaxFlow`] is a Boykov–Kolmogorov solver generic over the capacity type ([`Cost`]) and
 //! the arc layout ([`Topology`]): [`GridTopology`] for 4- and 8-connected pixel grids with
 //! implicit neighbour arcs, [`CsrTopology`] for general graphs (built by [`GraphBuilder`]).
+
+/// Unchecked indexing for the solver's hot loops. Every index is a node or arc produced by
+/// the topology (validated when the network was built) or a stored parent arc, so it is in
+/// range by construction; debug builds still check.
+macro_rules! at {
+    ($v:expr, $i:expr) => {{
+        let i = $i;
+        debug_assert!(i < $v.len());
+        // SAFETY: see the macro's doc: indices come from the topology and are in range.
+        *unsafe { $v.get_unchecked(i) }
+    }};
+}
+macro_rules! at_mut {
+    ($v:expr, $i:expr) => {
+        (*{
+            let i = $i;
+            debug_assert!(i < $v.len());
+            // SAFETY: as for `at!`.
+            unsafe { $v.get_unchecked_mut(i) }
+        })
+    };
+}
+
 mod bk;
+mod grid4;
 mod topology;
 
 pub use bk::{MaxFlow, Segment};
-pub use topology::{Connectivity, CsrTopology, GridArcs, GridTopology, Topology, GRID_DIRECTIONS};
+pub use grid4::GridMaxFlow;
+pub use topology::{
+    Connectivity, CsrTopology, Grid4Arcs, Grid4Topology, GridArcs, GridTopology, Topology,
+    GRID_DIRECTIONS,
+};
 
 use crate::cost::Cost;
 

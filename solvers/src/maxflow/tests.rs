@@ -164,3 +164,76 @@ fn grid_layout_matches_csr_layout() {
         }
     }
 }
+
+/// A random `w × h` 4-connected grid network: terminal and edge capacities in small ranges
+/// with many zeros (free nodes, blocked arcs).
+fn random_grid<T: Cost>(
+    rng: &mut Lcg,
+    w: usize,
+    h: usize,
+) -> (GridMaxFlow<T>, MaxFlow<T, GridTopology>) {
+    let mut g4 = GridMaxFlow::<T>::new(w, h);
+    let mut bk = MaxFlow::<T, _>::grid(w, h, Connectivity::Four);
+    let val = |rng: &mut Lcg, m: u64| T::from_f64(rng.below(m).saturating_sub(m / 3) as f64);
+    for n in 0..(w * h) as u32 {
+        let (s, t) = (val(rng, 24), val(rng, 24));
+        g4.add_tweights(n, s, t);
+        bk.add_tweights(n, s, t);
+        for d in [0, 2] {
+            let (c, r) = (val(rng, 15), val(rng, 15));
+            assert_eq!(g4.set_grid_edge(n, d, c, r), bk.set_grid_edge(n, d, c, r));
+        }
+    }
+    (g4, bk)
+}
+
+#[test]
+fn grid4_matches_bk_and_keeps_its_invariants() {
+    let mut rng = Lcg(17);
+    for trial in 0..400 {
+        let (w, h) = (1 + rng.below(13) as usize, 1 + rng.below(11) as usize);
+        let (mut g4, mut bk) = random_grid::<i32>(&mut rng, w, h);
+        let f = g4.maxflow();
+        g4.check_invariants();
+        assert_eq!(f, bk.maxflow(), "trial {trial} ({w}x{h})");
+        // The sink side of BK's result is the set of nodes that reach the sink in the
+        // residual graph, the same for every maximum flow.
+        for n in 0..(w * h) as u32 {
+            assert_eq!(g4.segment(n), bk.segment(n), "trial {trial} node {n}");
+        }
+        // Float capacities (integer-valued here, so exact).
+        let (mut g4, mut bk) = random_grid::<f64>(&mut rng, w, h);
+        let f = g4.maxflow();
+        g4.check_invariants();
+        assert_eq!(f, bk.maxflow(), "f64 trial {trial}");
+    }
+}
+
+#[test]
+fn grid4_resolves_after_capacity_changes() {
+    let mut rng = Lcg(23);
+    for trial in 0..200 {
+        let (w, h) = (1 + rng.below(9) as usize, 1 + rng.below(9) as usize);
+        let (mut g4, mut bk) = random_grid::<i64>(&mut rng, w, h);
+        assert_eq!(g4.maxflow(), bk.maxflow());
+        for _round in 0..3 {
+            for _ in 0..1 + rng.below(4) {
+                let i = rng.below((w * h) as u64) as u32;
+                let (ds, dt) = (rng.below(9) as i64 - 4, rng.below(9) as i64 - 4);
+                g4.add_tweights(i, ds, dt);
+                bk.add_tweights(i, ds, dt);
+            }
+            let i = rng.below((w * h) as u64) as u32;
+            let d = rng.below(4) as usize;
+            if let Some(a) = bk.topology().arc(i, d) {
+                assert!(g4.topology().arc(i, d).is_some());
+                let delta = rng.below(5) as i64;
+                g4.add_arc_capacity(i, d, delta);
+                bk.add_arc_capacity(a, delta);
+            }
+            let f = g4.maxflow();
+            g4.check_invariants();
+            assert_eq!(f, bk.maxflow(), "trial {trial}");
+        }
+    }
+}

@@ -29,6 +29,12 @@ pub trait Topology {
     fn edge_of(&self, arc: u32) -> usize;
     /// Size of the edge index space.
     fn num_edges(&self) -> usize;
+    /// `Some((width, height))` if this is a 4-connected grid whose edge indices are
+    /// [`GridTopology`]'s (`node * 2 + d / 2`), so that [`GridMaxFlow`](super::GridMaxFlow)
+    /// can solve it.
+    fn grid4_size(&self) -> Option<(usize, usize)> {
+        None
+    }
 }
 
 /// Neighbourhood of a pixel grid.
@@ -192,6 +198,122 @@ impl Topology for GridTopology {
     fn num_edges(&self) -> usize {
         self.mask.len() << (self.shift - 1)
     }
+    fn grid4_size(&self) -> Option<(usize, usize)> {
+        (self.shift == 2).then_some((self.width as usize, self.height as usize))
+    }
+}
+
+/// A 4-connected `width × height` grid with direction-major arcs: arc `d * n + node` leaves
+/// `node` in direction `d` of [`GRID_DIRECTIONS`] (`n` nodes), so each direction's
+/// capacities form one contiguous array (the layout of
+/// [`GridMaxFlow`](super::GridMaxFlow), whose initialisation runs vectorised row passes
+/// over them). Edge indices are [`GridTopology`]'s: `node * 2 + d / 2` for the forward arc
+/// (`d` even).
+#[derive(Clone, Debug)]
+pub struct Grid4Topology {
+    grid: GridTopology,
+    n: u32,
+}
+
+impl Grid4Topology {
+    /// A 4-connected grid of `width × height` nodes. Panics if `4 * width * height`
+    /// overflows `u32`.
+    pub fn new(width: usize, height: usize) -> Self {
+        let grid = GridTopology::new(width, height, Connectivity::Four);
+        Grid4Topology {
+            n: (width * height) as u32,
+            grid,
+        }
+    }
+    /// Grid width in nodes.
+    pub fn width(&self) -> usize {
+        self.grid.width()
+    }
+    /// Grid height in nodes.
+    pub fn height(&self) -> usize {
+        self.grid.height()
+    }
+    /// The arc leaving `node` in direction `d` (0..4), if it stays inside the grid.
+    pub fn arc(&self, node: u32, d: usize) -> Option<u32> {
+        self.grid.arc(node, d).map(|_| d as u32 * self.n + node)
+    }
+    /// Direction and tail of an arc.
+    #[inline(always)]
+    fn split(&self, arc: u32) -> (u32, u32) {
+        let n = self.n;
+        let d = (arc >= n) as u32 + (arc >= 2 * n) as u32 + (arc >= 3 * n) as u32;
+        (d, arc - d * n)
+    }
+}
+
+/// Iterator over the arcs of one node of a [`Grid4Topology`].
+pub struct Grid4Arcs {
+    node: u32,
+    n: u32,
+    mask: u32,
+}
+
+impl Iterator for Grid4Arcs {
+    type Item = u32;
+    #[inline(always)]
+    fn next(&mut self) -> Option<u32> {
+        if self.mask == 0 {
+            None
+        } else {
+            let d = self.mask.trailing_zeros();
+            self.mask &= self.mask - 1;
+            Some(d * self.n + self.node)
+        }
+    }
+}
+
+impl Topology for Grid4Topology {
+    type Arcs = Grid4Arcs;
+    #[inline(always)]
+    fn num_nodes(&self) -> usize {
+        self.n as usize
+    }
+    #[inline(always)]
+    fn num_arcs(&self) -> usize {
+        4 * self.n as usize
+    }
+    #[inline(always)]
+    fn arcs(&self, node: u32) -> Grid4Arcs {
+        Grid4Arcs {
+            node,
+            n: self.n,
+            mask: self.grid.mask[node as usize] as u32,
+        }
+    }
+    #[inline(always)]
+    fn head(&self, arc: u32) -> u32 {
+        let (d, i) = self.split(arc);
+        (i as i64 + self.grid.offsets[d as usize]) as u32
+    }
+    #[inline(always)]
+    fn sister(&self, arc: u32) -> u32 {
+        let (d, _) = self.split(arc);
+        (d ^ 1) * self.n + self.head(arc)
+    }
+    #[inline(always)]
+    fn is_forward(&self, arc: u32) -> bool {
+        self.split(arc).0 & 1 == 0
+    }
+    #[inline(always)]
+    fn edge_of(&self, arc: u32) -> usize {
+        let (d, i) = self.split(arc);
+        if d & 1 == 0 {
+            (i * 2 + d / 2) as usize
+        } else {
+            (self.head(arc) * 2 + d / 2) as usize
+        }
+    }
+    fn num_edges(&self) -> usize {
+        2 * self.n as usize
+    }
+    fn grid4_size(&self) -> Option<(usize, usize)> {
+        Some((self.width(), self.height()))
+    }
 }
 
 /// A general graph in compressed sparse row form: the arcs of node `i` are
@@ -316,6 +438,22 @@ mod tests {
                     let (x, y) = ((n % 5) as i32, (n / 5) as i32);
                     let (hx, hy) = ((h % 5) as i32, (h / 5) as i32);
                     assert!((hx - x).abs() <= 1 && (hy - y).abs() <= 1);
+                }
+            }
+            if conn == Connectivity::Four {
+                // The direction-major layout has the same heads, sisters and edges.
+                let g4 = Grid4Topology::new(5, 3);
+                for n in 0..15u32 {
+                    let a: Vec<u32> = g.arcs(n).collect();
+                    let b: Vec<u32> = g4.arcs(n).collect();
+                    assert_eq!(a.len(), b.len());
+                    for (&a, &b) in a.iter().zip(&b) {
+                        assert_eq!(g.head(a), g4.head(b));
+                        assert_eq!(g.edge_of(a), g4.edge_of(b));
+                        assert_eq!(g.is_forward(a), g4.is_forward(b));
+                        assert_eq!(g4.head(g4.sister(b)), n);
+                        assert_eq!(g4.sister(g4.sister(b)), b);
+                    }
                 }
             }
             // 4-conn: 4*3 + 5*2 = 22 edges; 8-conn adds 2 * 4 * 2 = 16 diagonals.
