@@ -422,16 +422,18 @@ pub struct ViewPlanemap {
     pub planarity: Option<PlanarityMap>,
 }
 
-/// Labels one view: builds its energy ([`PlanemapEnergy`]) and minimises it by α-expansion.
-/// `scene` must be undistorted (PINHOLE) and `image` its image.
-pub fn label_view(
+/// The planar part of one view's energy: the visibility-conflict data term, the optional
+/// photo-consistency term, smoothness and dominant-line weights over the labels kept for
+/// the view. [`label_view`] minimises it (plus the non-planar label, when enabled); it is
+/// public so that a labelling can be scored against it (e.g. ground truth's, see
+/// `examples/energy_audit.rs`).
+pub fn view_energy(
     scene: &Scene,
     prepared: &Prepared,
     view_index: usize,
     image: &ImageF32,
     cfg: &Config,
-) -> Result<ViewPlanemap, PipelineError> {
-    let view = &scene.views[view_index];
+) -> Result<PlanemapEnergy, PipelineError> {
     let planes: Vec<_> = prepared.hypotheses.iter().map(|h| h.plane).collect();
     let photo_planes: Vec<u32> = (prepared.hypotheses.len() - prepared.sweep_hypotheses
         ..prepared.hypotheses.len())
@@ -448,6 +450,28 @@ pub fn label_view(
         scale: prepared.scale,
     };
     let planemap_err = |source| PipelineError::Planemap {
+        view: scene.views[view_index].name.clone(),
+        source,
+    };
+    let mut energy = PlanemapEnergy::build(&inputs, &cfg.planemap).map_err(planemap_err)?;
+    if let (true, Some(images)) = (cfg.planemap.photo_weight > 0.0, &prepared.images) {
+        add_photo_term(scene, view_index, image, images, &mut energy, &cfg.planemap)
+            .map_err(planemap_err)?;
+    }
+    Ok(energy)
+}
+
+/// Labels one view: builds its energy ([`view_energy`]) and minimises it by α-expansion.
+/// `scene` must be undistorted (PINHOLE) and `image` its image.
+pub fn label_view(
+    scene: &Scene,
+    prepared: &Prepared,
+    view_index: usize,
+    image: &ImageF32,
+    cfg: &Config,
+) -> Result<ViewPlanemap, PipelineError> {
+    let view = &scene.views[view_index];
+    let planemap_err = |source| PipelineError::Planemap {
         view: view.name.clone(),
         source,
     };
@@ -456,11 +480,7 @@ pub fn label_view(
         source,
     };
     let t = Instant::now();
-    let mut energy = PlanemapEnergy::build(&inputs, &cfg.planemap).map_err(planemap_err)?;
-    if let (true, Some(images)) = (cfg.planemap.photo_weight > 0.0, &prepared.images) {
-        add_photo_term(scene, view_index, image, images, &mut energy, &cfg.planemap)
-            .map_err(planemap_err)?;
-    }
+    let mut energy = view_energy(scene, prepared, view_index, image, cfg)?;
     // The non-planar label (Gallup et al. 2010): classifier costs and the sweep's depth.
     let evidence = match (&prepared.classifier, &prepared.images) {
         (Some(model), Some(images)) => Some(

@@ -1,0 +1,326 @@
+//! Why is a view's planemap wrong? Scores planemap's labelling and a ground-truth labelling
+//! under the same energy, on a `planemap synth` workspace.
+//!
+//! ```sh
+//! cargo run --release --example energy_audit -- WORKSPACE [VIEW ...] [--set key=value ...] \
+//!     [--maps DIR [--photo-pair A,B]]
+//! ```
+//!
+//! Per view it prints:
+//! - coverage: the share of pixels with ground-truth depth that some plane hypothesis (all
+//!   of them / the labels kept for this view) explains within 1 % — what the labelling could
+//!   reach at best;
+//! - planemap's result and the "oracle" labelling (each pixel takes the kept label closest
+//!   to ground truth if one is within 1 %, else planemap's label), each with its energy split
+//!   into the visibility data term, the photo-consistency term and the smoothness term.
+//!
+//! If the oracle's energy is lower, the solver stopped in a worse local minimum; if it is
+//! higher, the energy itself prefers the wrong answer, and the split says which term.
+//!
+//! `--maps DIR` writes `smooth_VIEW.png`: planemap's labels, the oracle's, each darkened
+//! with the smoothness it pays in red, and the pixels where they differ (red where the
+//! oracle's photo cost is higher, green where lower). `--photo-pair A,B` adds
+//! `photo_VIEW_A_B.png`, plane A's photo cost minus plane B's (red: A dearer).
+
+use std::path::PathBuf;
+
+use planemap::io::colmap::read_model;
+use planemap::io::pfm::read_pfm_path;
+use planemap::pipeline::{self, output_stem, Config};
+use planemap::planemap::PlanemapEnergy;
+use planemap_solvers::{
+    Connectivity, DataCost, ExpansionConfig, LabelOrder, Mrf, Smoothness as SolverSmoothness,
+};
+
+/// Energy of a labelling split into (visibility data, photo data, smoothness).
+fn split(e: &PlanemapEnergy, vis: &PlanemapEnergy, labels: &[u32]) -> (f64, f64, f64) {
+    let (w, h) = (e.width as usize, e.height as usize);
+    let (mut dv, mut dp, mut s) = (0.0, 0.0, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            let p = y * w + x;
+            let a = labels[p];
+            let v = vis.unary(p, a) as f64;
+            dv += v;
+            dp += e.unary(p, a) as f64 - v;
+            if x + 1 < w {
+                s += e.pairwise(p, p + 1, a, labels[p + 1]) as f64;
+            }
+            if y + 1 < h {
+                s += e.pairwise(p, p + w, a, labels[p + w]) as f64;
+            }
+        }
+    }
+    (dv, dp, s)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let Some(ws) = args.next().map(PathBuf::from) else {
+        eprintln!("usage: energy_audit WORKSPACE [VIEW ...] [--set key=value ...] [--maps DIR [--photo-pair A,B]]");
+        std::process::exit(2);
+    };
+    let mut views = Vec::new();
+    let mut overrides = Vec::new();
+    let mut maps: Option<String> = None;
+    let mut pair: Option<Vec<u32>> = None;
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--set" => overrides.push(args.next().ok_or("--set needs key=value")?),
+            "--maps" => maps = Some(args.next().ok_or("--maps needs a directory")?),
+            "--photo-pair" => {
+                let v = args.next().ok_or("--photo-pair needs A,B")?;
+                let ids: Vec<u32> = v.split(',').map(str::parse).collect::<Result<_, _>>()?;
+                if ids.len() != 2 {
+                    return Err("--photo-pair needs two plane ids A,B".into());
+                }
+                pair = Some(ids);
+            }
+            _ => views.push(a.parse::<usize>()?),
+        }
+    }
+    let cfg = Config::default().with_overrides(&overrides)?;
+    let scene = read_model(&ws.join("sparse"))?
+        .to_scene(Some(&ws.join("images")))?
+        .undistorted();
+    if views.is_empty() {
+        views = (0..scene.views.len()).collect();
+    }
+    let prepared = pipeline::prepare(&scene, &cfg)?;
+    let mut vis_cfg = cfg.clone();
+    vis_cfg.planemap.photo_weight = 0.0;
+    println!(
+        "{}: R = {:.4}, {} hypotheses",
+        ws.display(),
+        prepared.scale,
+        prepared.hypotheses.len()
+    );
+    for &v in &views {
+        let image = scene.views[v].load_undistorted_image()?;
+        let stem = output_stem(&scene.views[v].name);
+        let gt = read_pfm_path(&ws.join("gt/depth").join(format!("{stem}.pfm")))?;
+        let e = pipeline::view_energy(&scene, &prepared, v, &image, &cfg)?;
+        let vis = pipeline::view_energy(&scene, &prepared, v, &image, &vis_cfg)?;
+        assert_eq!(
+            e.labels, vis.labels,
+            "pruning must not depend on the photo term"
+        );
+        let result = pipeline::label_view(&scene, &prepared, v, &image, &cfg)?;
+        let local_of = |g: u32| e.labels.iter().position(|&l| l == g).map(|i| i as u32);
+        let ours: Vec<u32> = result
+            .labels
+            .iter()
+            .map(|&g| local_of(g).unwrap_or(0))
+            .collect();
+        let n = e.num_pixels();
+        let gt_normals = read_pfm_path(&ws.join("gt/normals").join(format!("{stem}.pfm")))?;
+        // A label is right at p if its depth is within 1 % of ground truth and its normal
+        // within 10° of ground truth's (so a floor plane crossing the ceiling's depth on some
+        // row does not count).
+        let right =
+            |p: usize, plane: &planemap::geometry::Plane, world_normal: &nalgebra::Vector3<f64>| {
+                let z = gt.data[p] as f64;
+                let ray = e.smoothness.pixel_ray(p);
+                let g = nalgebra::Vector3::new(
+                    gt_normals.data[3 * p] as f64,
+                    gt_normals.data[3 * p + 1] as f64,
+                    gt_normals.data[3 * p + 2] as f64,
+                );
+                z > 0.0
+                    && plane
+                        .depth_along(&ray)
+                        .is_some_and(|d| (d - z).abs() / z <= 0.01)
+                    && (g.norm() < 0.5
+                        || world_normal.dot(&g).abs() >= 10f64.to_radians().cos() * g.norm())
+            };
+        let cams: Vec<_> = (0..e.num_labels() as u32)
+            .map(|a| *e.smoothness.plane_in_camera(a))
+            .collect();
+        let all_cam: Vec<_> = prepared
+            .hypotheses
+            .iter()
+            .map(|h| {
+                (
+                    h.plane.in_camera(&scene.views[v].cam_from_world),
+                    h.plane.normal,
+                )
+            })
+            .collect();
+        let ok = |p: usize, a: u32| right(p, &cams[a as usize], &e.planes[a as usize].normal);
+        let mut oracle = ours.clone();
+        let (mut gt_px, mut any_ok, mut kept_ok, mut ours_ok) = (0usize, 0usize, 0usize, 0usize);
+        let mut fixable = vec![false; n];
+        for p in 0..n {
+            if gt.data[p] <= 0.0 {
+                continue;
+            }
+            gt_px += 1;
+            if all_cam.iter().any(|(pl, nw)| right(p, pl, nw)) {
+                any_ok += 1;
+            }
+            if ok(p, ours[p]) {
+                ours_ok += 1;
+            }
+            if let Some(a) = (0..e.num_labels() as u32).find(|&a| ok(p, a)) {
+                kept_ok += 1;
+                fixable[p] = true;
+                if !ok(p, ours[p]) {
+                    oracle[p] = a;
+                }
+            }
+        }
+        // The lowest-energy labelling among those that are right wherever a kept label can
+        // be: α-expansion on the same energy with every wrong label made prohibitive there.
+        let oracle = {
+            let nl = e.num_labels();
+            let scale = cfg.solver.cost_scale;
+            let to_int = |c: f32| (c as f64 * scale).round() as i32;
+            let penalty = to_int(1000.0);
+            let mut unary: Vec<i32> = e.unary.iter().map(|&c| to_int(c)).collect();
+            for p in (0..n).filter(|&p| fixable[p]) {
+                for a in 0..nl {
+                    if !ok(p, a as u32) {
+                        unary[p * nl + a] += penalty;
+                    }
+                }
+            }
+            let smooth = |p: usize, q: usize, a: u32, b: u32| to_int(e.pairwise(p, q, a, b));
+            let mrf = Mrf::grid(
+                e.width as usize,
+                e.height as usize,
+                Connectivity::Four,
+                nl,
+                DataCost::Dense(&unary),
+            )?
+            .with_smoothness(SolverSmoothness::Fn(Box::new(smooth)))?;
+            mrf.expansion(
+                &ExpansionConfig {
+                    max_cycles: 10,
+                    order: LabelOrder::Fixed,
+                },
+                Some(&oracle),
+            )?
+            .labels
+        };
+        let pct = |k: usize| 100.0 * k as f64 / gt_px.max(1) as f64;
+        let (ov, op, os) = split(&e, &vis, &ours);
+        let (gv, gp, gs) = split(&e, &vis, &oracle);
+        println!(
+            "view {v} ({}): {} labels; within 1%: ours {:.1}%, reachable with kept labels {:.1}%, with all hypotheses {:.1}%",
+            scene.views[v].name,
+            e.num_labels(),
+            pct(ours_ok),
+            pct(kept_ok),
+            pct(any_ok)
+        );
+        println!(
+            "  ours   E = {:10.1}  (visibility {:9.1}, photo {:9.1}, smooth {:9.1})",
+            ov + op + os,
+            ov,
+            op,
+            os
+        );
+        println!(
+            "  oracle E = {:10.1}  (visibility {:9.1}, photo {:9.1}, smooth {:9.1})  {}",
+            gv + gp + gs,
+            gv,
+            gp,
+            gs,
+            if gv + gp + gs < ov + op + os {
+                "lower: the solver missed it"
+            } else {
+                "higher: the energy prefers ours"
+            }
+        );
+        if let Some(dir) = &maps {
+            // Per-pixel smoothness paid (right and down pairs) and labels, for both labellings.
+            let (w, h) = (e.width as usize, e.height as usize);
+            let mut im = image::RgbImage::new(e.width * 3, e.height);
+            for p in 0..n {
+                let (x, y) = ((p % w) as u32, (p / w) as u32);
+                let px = if ours[p] != oracle[p] {
+                    let d = (e.unary(p, oracle[p]) - vis.unary(p, oracle[p]))
+                        - (e.unary(p, ours[p]) - vis.unary(p, ours[p]));
+                    let m = ((d.abs() / 0.3) * 255.0).clamp(40.0, 255.0) as u8;
+                    if d > 0.0 {
+                        [m, 0, 0]
+                    } else {
+                        [0, m, 0]
+                    }
+                } else {
+                    [0, 0, 0]
+                };
+                im.put_pixel(2 * e.width + x, y, image::Rgb(px));
+            }
+            for (k, lab) in [&ours, &oracle].into_iter().enumerate() {
+                for y in 0..h {
+                    for x in 0..w {
+                        let p = y * w + x;
+                        let mut c = 0.0;
+                        if x + 1 < w {
+                            c += e.pairwise(p, p + 1, lab[p], lab[p + 1]);
+                        }
+                        if y + 1 < h {
+                            c += e.pairwise(p, p + w, lab[p], lab[p + w]);
+                        }
+                        let v = (c / (2.0 * e.lambda * 10.0) * 255.0).min(255.0) as u8;
+                        let base = planemap::io::labelpng::label_color(
+                            e.labels[lab[p] as usize] as u16 + 1,
+                        );
+                        let px = if v > 0 {
+                            [v.max(60), 0, 0]
+                        } else {
+                            [base[0] / 3, base[1] / 3, base[2] / 3]
+                        };
+                        im.put_pixel((k * w + x) as u32, y as u32, image::Rgb(px));
+                    }
+                }
+            }
+            im.save(format!("{dir}/smooth_{v}.png"))?;
+        }
+        if let (Some(dir), Some(g)) = (&maps, &pair) {
+            // Photo cost of global plane a minus that of b: red where a is dearer, green cheaper.
+            if let (Some(a), Some(b)) = (local_of(g[0]), local_of(g[1])) {
+                let mut im = image::RgbImage::new(e.width, e.height);
+                for p in 0..n {
+                    let pa = e.unary(p, a) - vis.unary(p, a);
+                    let pb = e.unary(p, b) - vis.unary(p, b);
+                    let d = ((pa - pb) * 255.0 / cfg.planemap.photo_weight.max(1e-6) as f32) as i32;
+                    let px = if d > 0 {
+                        [d.min(255) as u8, 0, 0]
+                    } else {
+                        [0, (-d).min(255) as u8, 0]
+                    };
+                    im.put_pixel(
+                        (p % e.width as usize) as u32,
+                        (p / e.width as usize) as u32,
+                        image::Rgb(px),
+                    );
+                }
+                im.save(format!("{dir}/photo_{v}_{}_{}.png", g[0], g[1]))?;
+            }
+        }
+        // Which labels the two disagree on most, with the per-pixel data difference.
+        let mut pairs: std::collections::BTreeMap<(u32, u32), (usize, f64, f64)> =
+            Default::default();
+        for p in 0..n {
+            if ours[p] != oracle[p] {
+                let entry = pairs.entry((ours[p], oracle[p])).or_default();
+                entry.0 += 1;
+                entry.1 += (vis.unary(p, oracle[p]) - vis.unary(p, ours[p])) as f64;
+                entry.2 += ((e.unary(p, oracle[p]) - vis.unary(p, oracle[p]))
+                    - (e.unary(p, ours[p]) - vis.unary(p, ours[p])))
+                    as f64;
+            }
+        }
+        let mut pairs: Vec<_> = pairs.into_iter().collect();
+        pairs.sort_by_key(|(_, (count, _, _))| std::cmp::Reverse(*count));
+        for ((a, b), (count, dv, dp)) in pairs.iter().take(5) {
+            println!(
+                "    ours plane {:>3} -> oracle plane {:>3}: {:6} px, Δvisibility {:+8.1}, Δphoto {:+8.1}",
+                e.labels[*a as usize], e.labels[*b as usize], count, dv, dp
+            );
+        }
+    }
+    Ok(())
+}
