@@ -555,7 +555,9 @@ pub fn dominant_axes(
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct AxisRefineConfig {
-    /// Refit rounds (each: hypotheses → axes → hypotheses); 0 = off.
+    /// Refit rounds (each: hypotheses → axes → hypotheses); 0 = off. Each round starts
+    /// from hypotheses found along the previous round's axes, so a tilt shrinks round by
+    /// round (stairs' vertical axis: 11° → 2.1° after 2 rounds, 0.3° after 4).
     pub iterations: usize,
     /// A point is an inlier of a plane if within this many R of it...
     pub inlier_r: f64,
@@ -574,7 +576,7 @@ pub struct AxisRefineConfig {
 impl Default for AxisRefineConfig {
     fn default() -> Self {
         AxisRefineConfig {
-            iterations: 2,
+            iterations: 4,
             inlier_r: 2.0,
             normal_tolerance_deg: 10.0,
             max_change_deg: 20.0,

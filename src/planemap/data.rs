@@ -335,8 +335,10 @@ mod tests {
     #[test]
     fn case1_point_seen_by_target_rejects_front_and_back() {
         let line = line_setup(Vector3::new(0.0, 0.0, 20.0));
+        // An offset, so the test sees it subtracted (the weight stays under the truncation).
         let config = PlanemapConfig {
             splat_radius: 0,
+            confidence_offset: 0.2,
             ..Default::default()
         };
         let cloud = one_point(vec![0], 0.6);
@@ -392,6 +394,7 @@ mod tests {
         let line = line_setup(Vector3::new(2.0, 0.0, 0.0));
         let config = PlanemapConfig {
             splat_radius: 0,
+            confidence_offset: 0.3,
             ..Default::default()
         };
         let w = (0.7 - config.confidence_offset) as f32;

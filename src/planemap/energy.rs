@@ -32,6 +32,9 @@ pub struct PlanemapEnergy {
     pub lambda: f32,
     /// World-frame plane of each local label.
     pub planes: Vec<Plane>,
+    /// The least V (units of R) of a label change between pixels without an image edge
+    /// ([`PlanemapConfig::crease_cost`]).
+    pub crease: f32,
 }
 
 impl PlanemapEnergy {
@@ -74,6 +77,7 @@ impl PlanemapEnergy {
             smoothness,
             lambda: config.lambda as f32,
             planes,
+            crease: config.crease_cost as f32,
         })
     }
 
@@ -93,14 +97,29 @@ impl PlanemapEnergy {
         self.unary[p * self.labels.len() + a as usize]
     }
 
-    /// The pairwise term λ·w_pq·V_pq(a, b) for 4-neighbours `p`, `q` and local labels:
-    /// the closure to hand to α-expansion.
+    /// The pairwise term λ·w_pq·max(V_pq(a, b), crease) for 4-neighbours `p`, `q` and
+    /// local labels (crease = [`Self::crease_floor`]): the closure to hand to α-expansion.
+    /// The floor keeps the term a truncated metric in (a, b) for a fixed pair when it is at
+    /// most the truncation: max(d, c) of a metric d and a constant c over distinct labels is
+    /// a metric.
     #[inline]
     pub fn pairwise(&self, p: usize, q: usize, a: u32, b: u32) -> f32 {
         if a == b {
             return 0.0;
         }
-        self.lambda * self.weights.between(p, q) * self.smoothness.cost(p, q, a, b)
+        let v = self.smoothness.cost(p, q, a, b);
+        self.lambda * self.weights.between(p, q) * v.max(self.crease_floor(p, q))
+    }
+
+    /// The least V (units of R) a label change between `p` and `q` pays: the crease cost
+    /// where no image edge passes through either pixel, 0 where one does.
+    #[inline]
+    pub fn crease_floor(&self, p: usize, q: usize) -> f32 {
+        if self.weights.edge_between(p, q) {
+            0.0
+        } else {
+            self.crease
+        }
     }
 
     /// λ·V_pq(a, b) without the edge weight: the closure for a solver that applies the
@@ -111,7 +130,11 @@ impl PlanemapEnergy {
         if a == b {
             return 0.0;
         }
-        self.lambda * self.smoothness.cost(p, q, a, b)
+        self.lambda
+            * self
+                .smoothness
+                .cost(p, q, a, b)
+                .max(self.crease_floor(p, q))
     }
 
     /// The pixels where local label `a` is feasible (its plane in front of the camera),
@@ -283,7 +306,11 @@ mod tests {
         let slots = e.weights.interleaved();
         for y in 0..e.height as usize {
             let p = y * w + split - 1;
-            pair += (e.lambda * e.weights.right[p] * e.smoothness.cost(p, p + 1, 0, 1)) as f64;
+            let v = e
+                .smoothness
+                .cost(p, p + 1, 0, 1)
+                .max(e.crease_floor(p, p + 1));
+            pair += (e.lambda * e.weights.right[p] * v) as f64;
             let via_slots = slots[2 * p] * e.smoothness_term(p, p + 1, 0, 1);
             assert!((via_slots - e.pairwise(p, p + 1, 0, 1)).abs() <= 1e-6 * via_slots);
         }
@@ -348,6 +375,40 @@ mod tests {
             e.energy(&grown) > e_truth,
             "{} vs {e_truth}",
             e.energy(&grown)
+        );
+    }
+
+    /// A label change pays at least the crease cost between pixels without an image edge,
+    /// and exactly the paper's V across an edge; crease_cost 0 is the paper's V everywhere.
+    #[test]
+    fn crease_floor_applies_only_off_image_edges() {
+        let (_, mut e) = build(0);
+        let w = e.width as usize;
+        e.crease = 3.0;
+        let (mut plain, mut edged) = (0, 0);
+        for p in (0..e.num_pixels()).filter(|p| p % w + 1 < w) {
+            let q = p + 1;
+            let v = e.smoothness.cost(p, q, 0, 1);
+            let lw = e.lambda * e.weights.between(p, q);
+            let got = e.pairwise(p, q, 0, 1);
+            if e.weights.edge_between(p, q) {
+                assert_eq!(got, lw * v);
+                edged += 1;
+            } else {
+                assert_eq!(got, lw * v.max(3.0));
+                plain += 1;
+            }
+            assert_eq!(e.pairwise(p, q, 1, 1), 0.0);
+        }
+        assert!(
+            plain > 100 && edged > 10,
+            "{plain} plain, {edged} edge pairs"
+        );
+        e.crease = 0.0;
+        let p = w * 10 + 10;
+        assert_eq!(
+            e.pairwise(p, p + 1, 0, 1),
+            e.lambda * e.weights.between(p, p + 1) * e.smoothness.cost(p, p + 1, 0, 1)
         );
     }
 

@@ -37,10 +37,14 @@ pub struct EdgeWeights {
     /// `down[y·width + x]` is the weight of the pair (x, y)–(x, y+1); the last row is unused
     /// and holds 1.
     pub down: Vec<f32>,
+    /// Per pixel (row-major): whether an image edge of any direction passes through it
+    /// (Sobel magnitude above `edge_gradient_threshold`); a label change between two
+    /// pixels without one pays at least the crease cost ([`PlanemapConfig::crease_cost`]).
+    pub image_edge: Vec<bool>,
 }
 
 impl EdgeWeights {
-    /// All weights 1 (no dominant lines).
+    /// All weights 1 (no dominant lines), an image edge at every pixel (no crease cost).
     pub fn uniform(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
         EdgeWeights {
@@ -48,6 +52,7 @@ impl EdgeWeights {
             height,
             right: vec![1.0; n],
             down: vec![1.0; n],
+            image_edge: vec![true; n],
         }
     }
 
@@ -60,6 +65,12 @@ impl EdgeWeights {
             .zip(&self.down)
             .flat_map(|(&r, &d)| [r, d])
             .collect()
+    }
+
+    /// Whether an image edge passes through `p` or `q` (row-major indices).
+    #[inline]
+    pub fn edge_between(&self, p: usize, q: usize) -> bool {
+        self.image_edge[p] || self.image_edge[q]
     }
 
     /// w_pq for 4-neighbours `p`, `q` (row-major indices, either order); 1 for pixels that
@@ -221,6 +232,12 @@ pub fn dominant_line_weights(
         mask[i] && (along as f64).abs() >= CROSSING_MIN_SIN * g
     };
     let mut weights = EdgeWeights::uniform(image.width, image.height);
+    let threshold = config.edge_gradient_threshold;
+    weights.image_edge = gx
+        .iter()
+        .zip(&gy)
+        .map(|(&a, &b)| (a as f64).hypot(b as f64) > threshold)
+        .collect();
     weights
         .right
         .par_chunks_mut(w)

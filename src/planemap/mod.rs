@@ -72,9 +72,10 @@ pub struct PlanemapConfig {
     pub margin_factor: f64,
     /// Confidence offset: a conflicting point P adds `max(0, C(P) − offset)`. The paper uses
     /// 0.7 on PMVS NCC scores in [−1, 1] (only strong patches count). planemap's confidences
-    /// are in [0, 1] (synthetic, or derived from COLMAP track length and error), so the
-    /// default 0.2 ignores only the weakest points and lets a confident point (C ≥ 0.7)
-    /// saturate the truncation alone.
+    /// are in [0, 1] (synthetic, or derived from COLMAP track length and error), and a
+    /// COLMAP point seen by 2 views with 0.8 px error has C = 0.15: any positive offset
+    /// silences the short tracks that are often a wall's only points near a camera
+    /// (stairs: 2.8 points of depth accuracy), so the default is 0.
     pub confidence_offset: f64,
     /// Truncation of the data term D (paper: 0.5). Also the cost of a plane that is behind
     /// the camera or parallel to the pixel's ray.
@@ -85,12 +86,23 @@ pub struct PlanemapConfig {
     pub splat_radius: u32,
     /// Truncation of the smoothness term V in units of R (paper: 10).
     pub smoothness_truncation: f64,
-    /// λ, the weight of the smoothness term (paper: set per dataset). Our start value.
+    /// λ, the weight of the smoothness term (paper: set per dataset). 0.25, tuned across the
+    /// scenes in scenes/ together with `edge_gradient_threshold` and `crease_cost`.
     pub lambda: f64,
+    /// The least V, in units of R, that a label change pays between two pixels where no
+    /// image edge passes (Sobel magnitude at most `edge_gradient_threshold` at both). The
+    /// paper's V is 0 wherever the two planes meet on the midpoint ray, so a plane can be
+    /// continued across a plain region up to its 3D crease with another plane at no cost
+    /// (a table top extended to the wall behind it); real creases between differently
+    /// oriented surfaces are nearly always image edges (their shading differs). 0 = the
+    /// paper's V. At most `smoothness_truncation`.
+    pub crease_cost: f64,
     /// w_pq on a dominant line (paper: 0.01); 1 elsewhere.
     pub dominant_line_weight: f64,
     /// Sobel gradient magnitude (grey levels in [0, 1] per pixel; kernel normalised by 1/8
-    /// so a unit step gives 0.5) above which a pixel is an image edge.
+    /// so a unit step gives 0.5) above which a pixel is an image edge. 0.015 is a 3 %
+    /// step, about 3.5 σ of the Sobel response to 1 % image noise: the shading step between
+    /// a wall and a ceiling is often only a few grey levels.
     pub edge_gradient_threshold: f64,
     /// Maximal angle in degrees between an image edge's direction and the direction toward a
     /// vanishing point for the edge to count as a dominant line.
@@ -119,13 +131,14 @@ impl Default for PlanemapConfig {
     fn default() -> Self {
         PlanemapConfig {
             margin_factor: 10.0,
-            confidence_offset: 0.2,
+            confidence_offset: 0.0,
             data_truncation: 0.5,
             splat_radius: 1,
             smoothness_truncation: 10.0,
-            lambda: 0.1,
+            lambda: 0.25,
+            crease_cost: 4.0,
             dominant_line_weight: 0.01,
-            edge_gradient_threshold: 0.05,
+            edge_gradient_threshold: 0.015,
             edge_angle_tolerance_deg: 10.0,
             edge_non_max_suppression: true,
             min_support: 6,
@@ -170,6 +183,16 @@ impl PlanemapConfig {
         positive("data_truncation", self.data_truncation)?;
         positive("smoothness_truncation", self.smoothness_truncation)?;
         non_negative("lambda", self.lambda)?;
+        non_negative("crease_cost", self.crease_cost)?;
+        if self.crease_cost > self.smoothness_truncation {
+            return Err(PlanemapError::Config {
+                field: "crease_cost",
+                message: format!(
+                    "must be at most smoothness_truncation ({}), got {}",
+                    self.smoothness_truncation, self.crease_cost
+                ),
+            });
+        }
         non_negative("photo_weight", self.photo_weight)?;
         if !(self.dominant_line_weight.is_finite()
             && self.dominant_line_weight >= 0.0

@@ -292,7 +292,9 @@ impl ExtendedEnergy<'_> {
             }
             _ => s.truncation(),
         };
-        self.planar.lambda * self.planar.weights.between(p, q) * v
+        self.planar.lambda
+            * self.planar.weights.between(p, q)
+            * v.max(self.planar.crease_floor(p, q))
     }
 
     /// Total energy of a labelling in local labels (real units).
@@ -504,11 +506,19 @@ mod tests {
             }
         }
         assert!(checked > 500);
-        // Left half: the sweep lies on plane 0, so switching there is (nearly) free; right
-        // half: it is 30 % behind, which costs the truncation.
+        // Left half: the sweep lies on plane 0, so switching there costs only the crease
+        // floor (no image edge there); right half: it is 30 % behind, which costs the
+        // truncation.
         let (left, right) = (60 * w + 10, 60 * w + w - 12);
         let trunc = energy.lambda * energy.smoothness.truncation();
-        assert!(x.pairwise(left, left + 1, 0, np) < 0.05 * trunc);
+        let floor = energy.lambda
+            * energy.weights.between(left, left + 1)
+            * energy.crease_floor(left, left + 1);
+        let switch = x.pairwise(left, left + 1, 0, np);
+        assert!(
+            switch >= floor - 1e-6 && switch < floor + 0.05 * trunc,
+            "{switch} vs {floor}"
+        );
         let wr = energy.weights.between(right, right + 1);
         assert!((x.pairwise(right, right + 1, 0, np) - trunc * wr).abs() < 1e-4);
         // Energy of a labelling = the sum the solver sees.
