@@ -77,6 +77,8 @@ pub struct HypothesesConfig {
     pub max_iterations: usize,
     /// The photo-consistency sweep proposing planes the points are too few for.
     pub sweep: SweepHypothesesConfig,
+    /// Planes through image creases lifted onto the first labelling's planes.
+    pub creases: CreaseHypothesesConfig,
 }
 
 impl Default for HypothesesConfig {
@@ -93,6 +95,7 @@ impl Default for HypothesesConfig {
             min_confidence: 1e-3,
             max_iterations: 100,
             sweep: SweepHypothesesConfig::default(),
+            creases: CreaseHypothesesConfig::default(),
         }
     }
 }
@@ -136,6 +139,7 @@ impl HypothesesConfig {
         if self.max_iterations == 0 {
             return bad("max_iterations must be ≥ 1".into());
         }
+        self.creases.validate()?;
         self.sweep.validate()
     }
 
@@ -1287,5 +1291,341 @@ mod tests {
             );
             assert_eq!(strong, 40);
         }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Crease hypotheses: planes through dominant image lines lifted onto labelled planes.
+// ---------------------------------------------------------------------------------------
+
+/// Settings of [`crease_hypotheses`], a third source of plane hypotheses for plain surfaces
+/// that neither the points nor the photo-consistency sweep can place (a ceiling, the side
+/// faces of a table or a cabinet).
+///
+/// A dominant line (an image edge toward a vanishing point, [`crate::planemap::lines`]) is
+/// most often a crease or an occluding edge between two planes. Where the first labelling
+/// puts one of those planes, the line's pixels lifted onto it are 3D points of the crease;
+/// the other plane passes through them, and in a Manhattan scene its normal is one of the
+/// other dominant axes. Each such pixel votes for the offset `d_k · X` of every axis `d_k`
+/// not parallel to its plane's normal; an offset with enough votes from enough views that is
+/// not already a hypothesis becomes one, and every view is labelled again with it (Sinha et
+/// al. 2009 lift 3D line segments to planes in the same spirit).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CreaseHypothesesConfig {
+    /// Look for crease hypotheses (needs the images and costs a second labelling of every
+    /// view when any is found).
+    pub enabled: bool,
+    /// Votes an offset needs, as a multiple of the image width (a line's length grows with
+    /// the resolution). Offsets are binned at R; a peak pools its bin and the two beside it.
+    pub min_votes_per_width: f64,
+    /// ... from at least this many views.
+    pub min_views: usize,
+    /// An axis votes only if |d_k · n| is at most this for the labelled plane's normal n
+    /// (0.7 ≈ 45°): a crease joins planes of different orientation.
+    pub max_normal_cos: f64,
+    /// A candidate within this many R of an existing hypothesis of the same direction is
+    /// that hypothesis.
+    pub merge_r: f64,
+}
+
+impl Default for CreaseHypothesesConfig {
+    fn default() -> Self {
+        CreaseHypothesesConfig {
+            enabled: true,
+            min_votes_per_width: 1.25,
+            min_views: 2,
+            max_normal_cos: 0.7,
+            merge_r: 3.0,
+        }
+    }
+}
+
+impl CreaseHypothesesConfig {
+    /// Checks the fields.
+    pub fn validate(&self) -> Result<(), HypothesesError> {
+        let bad = |m: String| Err(HypothesesError::Config(format!("creases.{m}")));
+        if !(self.min_votes_per_width > 0.0 && self.min_votes_per_width.is_finite()) {
+            return bad(format!(
+                "min_votes_per_width = {} must be positive",
+                self.min_votes_per_width
+            ));
+        }
+        if self.min_views == 0 {
+            return bad("min_views must be ≥ 1".into());
+        }
+        if !(0.0..1.0).contains(&self.max_normal_cos) {
+            return bad(format!(
+                "max_normal_cos = {} must be in [0, 1)",
+                self.max_normal_cos
+            ));
+        }
+        if !(self.merge_r >= 0.0 && self.merge_r.is_finite()) {
+            return bad(format!("merge_r = {} must be ≥ 0", self.merge_r));
+        }
+        Ok(())
+    }
+}
+
+/// One view's first labelling, as [`crease_hypotheses`] reads it.
+#[derive(Debug, Clone, Copy)]
+pub struct LabelledView<'a> {
+    /// Index into `Scene::views`.
+    pub view_index: usize,
+    /// Hypothesis index per pixel (row-major); anything out of range (no plane, the
+    /// non-planar label) does not vote.
+    pub labels: &'a [u32],
+    /// Depth (camera z) per pixel; 0 = none.
+    pub depth: &'a [f32],
+    /// Dominant-line pixels of the view ([`crate::planemap::lines::dominant_line_mask`]).
+    pub lines: &'a [bool],
+}
+
+/// Crease hypotheses from labelled views (see [`CreaseHypothesesConfig`]), sorted by axis
+/// then offset, ids 0..; the caller renumbers them after the existing `hypotheses`. Only
+/// the Manhattan axes (`axes.num_manhattan`) are used. Deterministic: votes are summed in
+/// view and pixel order.
+pub fn crease_hypotheses(
+    scene: &Scene,
+    axes: &DominantAxes,
+    hypotheses: &[PlaneHypothesis],
+    views: &[LabelledView<'_>],
+    scale: f64,
+    cfg: &CreaseHypothesesConfig,
+) -> Result<Vec<PlaneHypothesis>, HypothesesError> {
+    cfg.validate()?;
+    if !(scale > 0.0 && scale.is_finite()) {
+        return Err(HypothesesError::Input(format!(
+            "sampling scale {scale} must be positive and finite"
+        )));
+    }
+    let m = axes.num_manhattan.min(axes.directions.len());
+    let dirs: Vec<Vector3<f64>> = axes.directions[..m].iter().map(|d| d.normalize()).collect();
+    // Per axis: offset bin (units of R) → (votes, sum of offsets, voting views).
+    type Bin = (u64, f64, Vec<bool>);
+    let mut votes: Vec<std::collections::BTreeMap<i64, Bin>> = vec![Default::default(); m];
+    let mut width = 0u32;
+    for lv in views {
+        let view = scene.views.get(lv.view_index).ok_or_else(|| {
+            HypothesesError::Input(format!("view index {} out of range", lv.view_index))
+        })?;
+        let (w, h) = (view.camera.width, view.camera.height);
+        let n = w as usize * h as usize;
+        if lv.labels.len() != n || lv.depth.len() != n || lv.lines.len() != n {
+            return Err(HypothesesError::Input(format!(
+                "view {}: labelling arrays are not {w}x{h}",
+                view.name
+            )));
+        }
+        width = width.max(w);
+        let world_from_cam = view.cam_from_world.inverse();
+        for p in (0..n).filter(|&p| lv.lines[p]) {
+            let (label, z) = (lv.labels[p] as usize, lv.depth[p] as f64);
+            if label >= hypotheses.len() || !(z > 0.0 && z.is_finite()) {
+                continue;
+            }
+            let normal = hypotheses[label].plane.normal;
+            let ray = view.camera.pixel_ray(p as u32 % w, p as u32 / w);
+            let x = (world_from_cam * nalgebra::Point3::from(ray * z)).coords;
+            for (k, d) in dirs.iter().enumerate() {
+                if d.dot(&normal).abs() > cfg.max_normal_cos {
+                    continue;
+                }
+                let o = d.dot(&x);
+                let entry = votes[k]
+                    .entry((o / scale).round() as i64)
+                    .or_insert_with(|| (0, 0.0, vec![false; scene.views.len()]));
+                entry.0 += 1;
+                entry.1 += o;
+                entry.2[lv.view_index] = true;
+            }
+        }
+    }
+    let min_votes = (cfg.min_votes_per_width * width as f64).ceil() as u64;
+    let mut out: Vec<PlaneHypothesis> = Vec::new();
+    for (k, map) in votes.iter().enumerate() {
+        let count = |b: i64| map.get(&b).map_or(0, |e| e.0);
+        for (&b, bin) in map {
+            // A local maximum (ties to the left bin) of the pooled three-bin window.
+            let pooled = |c: i64| count(c - 1) + count(c) + count(c + 1);
+            let here = pooled(b);
+            if here < min_votes || pooled(b - 1) > here || pooled(b + 1) >= here {
+                continue;
+            }
+            let mut sum = 0.0;
+            let mut seen = bin.2.clone();
+            for e in [b - 1, b + 1].iter().filter_map(|c| map.get(c)) {
+                sum += e.1;
+                for (s, &t) in seen.iter_mut().zip(&e.2) {
+                    *s |= t;
+                }
+            }
+            if seen.iter().filter(|&&s| s).count() < cfg.min_views {
+                continue;
+            }
+            let offset = (sum + bin.1) / here as f64;
+            let d = dirs[k];
+            let known = hypotheses.iter().chain(&out).any(|h| {
+                let c = h.plane.normal.dot(&d);
+                c.abs() >= 1.0f64.to_radians().cos()
+                    && (h.plane.offset - c.signum() * offset).abs() < cfg.merge_r * scale
+            });
+            if !known {
+                out.push(PlaneHypothesis {
+                    id: out.len() as u32,
+                    plane: Plane { normal: d, offset },
+                    axis: Some(k),
+                    support: 0,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod crease_tests {
+    use super::*;
+    use crate::planemap::testutil::corner_views;
+
+    /// Per view: labels, depth, dominant-line mask.
+    type Labelling = (Vec<u32>, Vec<f32>, Vec<bool>);
+
+    /// Every pixel of three views labelled with the wall x = 0, and a horizontal line on
+    /// that wall at z = 0.7 marked as a dominant line: the z axis gets a plane at 0.7.
+    fn wall_with_line(z_line: f64) -> (Scene, Vec<Labelling>) {
+        let views = corner_views();
+        let mut labelled = Vec::new();
+        for v in &views {
+            let (w, h) = (v.camera.width, v.camera.height);
+            let world_from_cam = v.cam_from_world.inverse();
+            let centre = v.center();
+            let mut depth = vec![0.0f32; (w * h) as usize];
+            let mut lines = vec![false; (w * h) as usize];
+            for y in 0..h {
+                for x in 0..w {
+                    let ray = v.camera.pixel_ray(x, y);
+                    let dir = world_from_cam.rotation * ray;
+                    // Camera-z depth where the ray meets x = 0.
+                    let t = -centre.x / dir.x;
+                    if t.is_nan() || t <= 0.0 {
+                        continue;
+                    }
+                    let p = centre + dir * t;
+                    let i = (y * w + x) as usize;
+                    depth[i] = t as f32;
+                    // The line: within half a pixel's footprint of z = z_line.
+                    lines[i] = (p.z - z_line).abs() < 0.5 * t / v.camera.fx();
+                }
+            }
+            labelled.push((vec![0u32; (w * h) as usize], depth, lines));
+        }
+        let scene = Scene {
+            views,
+            cloud: crate::scene::SparseCloud::default(),
+        };
+        (scene, labelled)
+    }
+
+    fn axes() -> DominantAxes {
+        DominantAxes {
+            directions: vec![Vector3::x(), Vector3::y(), Vector3::z()],
+            support: vec![100; 3],
+            pairwise_angles_deg: vec![(0, 1, 90.0), (0, 2, 90.0), (1, 2, 90.0)],
+            num_manhattan: 3,
+            warnings: Vec::new(),
+        }
+    }
+
+    fn wall() -> PlaneHypothesis {
+        PlaneHypothesis {
+            id: 0,
+            plane: Plane {
+                normal: Vector3::x(),
+                offset: 0.0,
+            },
+            axis: Some(0),
+            support: 50,
+        }
+    }
+
+    fn run(
+        scene: &Scene,
+        labelled: &[Labelling],
+        hyps: &[PlaneHypothesis],
+        cfg: &CreaseHypothesesConfig,
+    ) -> Vec<PlaneHypothesis> {
+        let lv: Vec<LabelledView> = labelled
+            .iter()
+            .enumerate()
+            .map(|(i, (l, d, m))| LabelledView {
+                view_index: i,
+                labels: l,
+                depth: d,
+                lines: m,
+            })
+            .collect();
+        crease_hypotheses(scene, &axes(), hyps, &lv, 0.01, cfg).unwrap()
+    }
+
+    #[test]
+    fn a_line_on_a_labelled_wall_proposes_the_plane_through_it() {
+        let (scene, labelled) = wall_with_line(0.7);
+        let cfg = CreaseHypothesesConfig {
+            min_votes_per_width: 0.5,
+            ..Default::default()
+        };
+        let found = run(&scene, &labelled, &[wall()], &cfg);
+        assert_eq!(found.len(), 1, "{found:?}");
+        let h = &found[0];
+        assert_eq!(h.axis, Some(2));
+        assert!((h.plane.offset - 0.7).abs() < 0.01, "{}", h.plane.offset);
+        // The wall's own axis never votes (parallel to its normal); nor does y, whose
+        // votes spread along the line.
+        assert!(found.iter().all(|h| h.axis != Some(0)));
+        // Already a hypothesis: nothing new.
+        let mut known = vec![wall()];
+        known.push(PlaneHypothesis {
+            id: 1,
+            plane: Plane {
+                normal: -Vector3::z(),
+                offset: -0.705,
+            },
+            axis: Some(2),
+            support: 10,
+        });
+        assert!(run(&scene, &labelled, &known, &cfg).is_empty());
+        // More views required than see it, or more votes than the line has: nothing.
+        let strict = CreaseHypothesesConfig {
+            min_views: 4,
+            ..cfg
+        };
+        assert!(run(&scene, &labelled, &[wall()], &strict).is_empty());
+        let long = CreaseHypothesesConfig {
+            min_votes_per_width: 50.0,
+            ..cfg
+        };
+        assert!(run(&scene, &labelled, &[wall()], &long).is_empty());
+    }
+
+    #[test]
+    fn unlabelled_pixels_do_not_vote_and_bad_sizes_are_errors() {
+        let (scene, mut labelled) = wall_with_line(0.7);
+        for (l, _, _) in &mut labelled {
+            l.iter_mut().for_each(|x| *x = 7); // no such hypothesis
+        }
+        let cfg = CreaseHypothesesConfig {
+            min_votes_per_width: 0.5,
+            ..Default::default()
+        };
+        assert!(run(&scene, &labelled, &[wall()], &cfg).is_empty());
+        labelled[0].2.pop();
+        let lv = [LabelledView {
+            view_index: 0,
+            labels: &labelled[0].0,
+            depth: &labelled[0].1,
+            lines: &labelled[0].2,
+        }];
+        assert!(crease_hypotheses(&scene, &axes(), &[wall()], &lv, 0.01, &cfg).is_err());
     }
 }

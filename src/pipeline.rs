@@ -20,8 +20,8 @@ use crate::axes::{
 };
 use crate::classify::{PlanarityMap, PlanarityModel};
 use crate::hypotheses::{
-    plane_hypotheses, sweep_hypotheses, HypothesesConfig, HypothesesError, HypothesesInput,
-    PlaneHypothesis,
+    crease_hypotheses, plane_hypotheses, sweep_hypotheses, HypothesesConfig, HypothesesError,
+    HypothesesInput, LabelledView, PlaneHypothesis,
 };
 use crate::io::atomic::write_atomic;
 use crate::io::dense::{write_dense_map_path, DenseError};
@@ -271,6 +271,10 @@ pub struct Prepared {
     /// ([`crate::hypotheses::sweep_hypotheses`]); they are offered in every view where they
     /// lie in front of the camera, since few sparse points support them.
     pub sweep_hypotheses: usize,
+    /// How many of `hypotheses` (the very last ones, after the sweep's) are crease
+    /// hypotheses ([`crate::hypotheses::crease_hypotheses`]), added by [`run`] after a first
+    /// labelling; offered like the sweep's. 0 after [`prepare`].
+    pub crease_hypotheses: usize,
     /// The undistorted images of all views, when a stage needs the neighbours' images (the
     /// sweep or the photo-consistency data term); `None` otherwise.
     pub images: Option<Vec<ImageF32>>,
@@ -390,6 +394,7 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
         axes,
         hypotheses,
         sweep_hypotheses: num_sweep,
+        crease_hypotheses: 0,
         images,
         seconds: [t_normals, t_axes, t.elapsed().as_secs_f64()],
     })
@@ -435,8 +440,10 @@ pub fn view_energy(
     cfg: &Config,
 ) -> Result<PlanemapEnergy, PipelineError> {
     let planes: Vec<_> = prepared.hypotheses.iter().map(|h| h.plane).collect();
-    let photo_planes: Vec<u32> = (prepared.hypotheses.len() - prepared.sweep_hypotheses
-        ..prepared.hypotheses.len())
+    // The sweep's and the crease hypotheses have few or no sparse points: offered wherever
+    // they lie in front of the camera.
+    let offered = prepared.sweep_hypotheses + prepared.crease_hypotheses;
+    let photo_planes: Vec<u32> = (prepared.hypotheses.len() - offered..prepared.hypotheses.len())
         .map(|i| i as u32)
         .collect();
     let inputs = ViewInputs {
@@ -679,6 +686,8 @@ pub struct RunSummary {
     pub third_axis_completed: bool,
     /// Plane hypotheses.
     pub hypotheses: usize,
+    /// Of those, crease hypotheses found after the first labelling (the last ones).
+    pub crease_hypotheses: usize,
     /// Per view: name, candidate labels, energy before/after, cycles, build and solve seconds.
     pub views: Vec<ViewSummary>,
     /// Points in fused.ply.
@@ -725,6 +734,7 @@ pub fn output_stem(name: &str) -> String {
 /// out/stereo/depth_maps/IMAGE.geometric.bin    COLMAP dense depth map
 /// out/stereo/normal_maps/IMAGE.geometric.bin   COLMAP dense normal map (camera frame)
 /// out/planes.json              hypotheses, support, which views use them
+/// out/crease_hypotheses.json   the crease hypotheses of the first labelling (for --resume)
 /// out/fused.ply                back-projected, cross-view consistent points
 /// out/summary.json             this summary
 /// ```
@@ -760,11 +770,55 @@ pub fn run(
         None => (0..scene.views.len()).collect(),
     };
     let t = Instant::now();
+    let mut prepared = prepared;
+    // With crease hypotheses: a first labelling of every view (nothing written), the
+    // hypotheses it yields, then the labelling below with them. If there are none, the first
+    // labelling is the result. `--resume` reuses the hypotheses a previous run saved.
+    let mut first: Option<Vec<ViewPlanemap>> = None;
+    if cfg.hypotheses.creases.enabled {
+        let saved_path = out.join(CREASES_FILE);
+        let saved = if opts.resume {
+            read_crease_hypotheses(&saved_path, prepared.hypotheses.len())
+        } else {
+            None
+        };
+        let extra = match saved {
+            Some(extra) => {
+                progress.println(&format!(
+                    "{} crease hypotheses reloaded from {}",
+                    extra.len(),
+                    saved_path.display()
+                ));
+                extra
+            }
+            None => {
+                let (extra, pass) = crease_pass(&scene, &prepared, &indices, cfg, progress)?;
+                write_crease_hypotheses(&saved_path, &extra)?;
+                progress.println(&format!(
+                    "{} crease hypotheses from the first labelling",
+                    extra.len()
+                ));
+                if extra.is_empty() {
+                    first = Some(pass);
+                }
+                extra
+            }
+        };
+        prepared.crease_hypotheses = extra.len();
+        prepared.hypotheses.extend(extra);
+    }
+    let prepared = prepared;
     let bar = progress.bar(indices.len() as u64, "planemaps");
     let results: Vec<Result<(ViewPlanemap, bool), PipelineError>> = indices
         .par_iter()
-        .map(|&i| {
+        .enumerate()
+        .map(|(k, &i)| {
             let view = &scene.views[i];
+            if let Some(done) = first.as_ref().map(|f| &f[k]) {
+                write_view_outputs(out, &scene, done)?;
+                bar.inc(1);
+                return Ok((done.clone(), false));
+            }
             if opts.resume {
                 if let Some(done) = load_view_outputs(out, &scene, &prepared, i) {
                     bar.inc(1);
@@ -808,6 +862,7 @@ pub fn run(
             .iter()
             .any(|w| matches!(w, crate::axes::AxesWarning::CompletedThird(_))),
         hypotheses: prepared.hypotheses.len(),
+        crease_hypotheses: prepared.crease_hypotheses,
         views: views
             .iter()
             .zip(&resumed)
@@ -1058,6 +1113,116 @@ pub fn fuse(
         normals: Some(normals),
         colors: Some(colors),
     })
+}
+
+/// The crease hypotheses of a run, saved so `--resume` need not repeat the first labelling.
+const CREASES_FILE: &str = "crease_hypotheses.json";
+
+/// The first labelling pass of [`run`]: every view in `indices` labelled with the sparse and
+/// sweep hypotheses, and the crease hypotheses that labelling yields (ids continuing after
+/// `prepared.hypotheses`).
+fn crease_pass(
+    scene: &Scene,
+    prepared: &Prepared,
+    indices: &[usize],
+    cfg: &Config,
+    progress: &Progress,
+) -> Result<(Vec<PlaneHypothesis>, Vec<ViewPlanemap>), PipelineError> {
+    let bar = progress.bar(indices.len() as u64, "planemaps (first pass)");
+    let pass: Vec<(ViewPlanemap, Vec<bool>)> = indices
+        .par_iter()
+        .map(|&i| {
+            let view = &scene.views[i];
+            let image = view.load_undistorted_image()?;
+            let result = label_view(scene, prepared, i, &image, cfg)?;
+            let lines = crate::planemap::lines::dominant_line_mask(
+                &image,
+                &view.camera,
+                &view.cam_from_world,
+                &prepared.axes.directions,
+                &cfg.planemap,
+            )
+            .map_err(|source| PipelineError::Planemap {
+                view: view.name.clone(),
+                source,
+            })?;
+            bar.inc(1);
+            Ok((result, lines))
+        })
+        .collect::<Result<_, PipelineError>>()?;
+    bar.finish();
+    let labelled: Vec<LabelledView> = pass
+        .iter()
+        .map(|(v, lines)| LabelledView {
+            view_index: v.view_index,
+            labels: &v.labels,
+            depth: &v.depth,
+            lines,
+        })
+        .collect();
+    let base = prepared.hypotheses.len();
+    let extra = crease_hypotheses(
+        scene,
+        &prepared.axes,
+        &prepared.hypotheses,
+        &labelled,
+        prepared.scale,
+        &cfg.hypotheses.creases,
+    )?
+    .into_iter()
+    .enumerate()
+    .map(|(i, mut h)| {
+        h.id = (base + i) as u32;
+        h
+    })
+    .collect();
+    Ok((extra, pass.into_iter().map(|(v, _)| v).collect()))
+}
+
+fn write_crease_hypotheses(path: &Path, hyps: &[PlaneHypothesis]) -> Result<(), PipelineError> {
+    let records: Vec<PlaneRecord> = hyps
+        .iter()
+        .map(|h| PlaneRecord {
+            id: h.id,
+            normal: [h.plane.normal.x, h.plane.normal.y, h.plane.normal.z],
+            offset: h.plane.offset,
+            axis: h.axis,
+            support: h.support,
+            views: Vec::new(),
+        })
+        .collect();
+    let json = serde_json::to_string_pretty(&records).map_err(|e| write_err(path, e))?;
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| write_err(dir, e))?;
+    }
+    write_atomic::<std::io::Error, _>(path, |f: &mut BufWriter<File>| {
+        std::io::Write::write_all(f, json.as_bytes())
+    })
+    .map_err(|e| write_err(path, e))
+}
+
+/// Saved crease hypotheses for `--resume`, if the file exists, parses, and continues the ids
+/// of the `base` hypotheses this run prepared; `None` (recompute) otherwise.
+fn read_crease_hypotheses(path: &Path, base: usize) -> Option<Vec<PlaneHypothesis>> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let records: Vec<PlaneRecord> = serde_json::from_str(&text).ok()?;
+    records
+        .into_iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let n = Vector3::new(r.normal[0], r.normal[1], r.normal[2]);
+            let unit = (n.norm() - 1.0).abs() < 1e-9 && r.offset.is_finite();
+            (r.id as usize == base + i && unit).then_some(PlaneHypothesis {
+                id: r.id,
+                plane: crate::geometry::Plane {
+                    normal: n,
+                    offset: r.offset,
+                },
+                axis: r.axis,
+                support: r.support,
+            })
+        })
+        .collect()
 }
 
 /// One hypothesis in `planes.json`.

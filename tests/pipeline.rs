@@ -183,6 +183,77 @@ fn resume_skips_finished_views_and_keeps_their_outputs() {
 }
 
 #[test]
+fn resume_reloads_the_crease_hypotheses_and_reproduces_a_view_exactly() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ws = tmp.path().join("ws");
+    let scene = tiny_demo(&ws);
+    let out = tmp.path().join("out");
+    let cfg = Config::default();
+    let (prepared, _, summary) = pipeline::run(
+        &scene,
+        &cfg,
+        &out,
+        &RunOptions::default(),
+        &Progress::hidden(),
+    )
+    .unwrap();
+    assert!(summary.crease_hypotheses > 0, "the tiny demo has creases");
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("crease_hypotheses.json")).unwrap())
+            .unwrap();
+    assert_eq!(saved.as_array().unwrap().len(), summary.crease_hypotheses);
+    // Drop one view's outputs: --resume relabels only that view, with the reloaded crease
+    // hypotheses, and must reproduce it byte for byte.
+    let label = out.join("planemaps/view_0002.png");
+    let depth = out.join("depth/view_0002.pfm");
+    let (label_before, depth_before) = (
+        std::fs::read(&label).unwrap(),
+        std::fs::read(&depth).unwrap(),
+    );
+    std::fs::remove_file(&label).unwrap();
+    let (prepared2, _, summary2) = pipeline::run(
+        &scene,
+        &cfg,
+        &out,
+        &RunOptions {
+            views: None,
+            resume: true,
+        },
+        &Progress::hidden(),
+    )
+    .unwrap();
+    assert_eq!(prepared2.hypotheses.len(), prepared.hypotheses.len());
+    for (a, b) in prepared.hypotheses.iter().zip(&prepared2.hypotheses) {
+        assert_eq!(a.plane.offset.to_bits(), b.plane.offset.to_bits());
+        assert_eq!(a.plane.normal, b.plane.normal);
+    }
+    let resumed: Vec<bool> = summary2.views.iter().map(|v| v.resumed).collect();
+    assert_eq!(resumed.iter().filter(|r| !**r).count(), 1, "{resumed:?}");
+    assert!(!resumed[2]);
+    assert_eq!(std::fs::read(&label).unwrap(), label_before);
+    assert_eq!(std::fs::read(&depth).unwrap(), depth_before);
+    // A damaged file is not trusted: the first pass runs again and rewrites it.
+    std::fs::write(out.join("crease_hypotheses.json"), "[{\"id\": 1").unwrap();
+    std::fs::remove_file(&label).unwrap();
+    pipeline::run(
+        &scene,
+        &cfg,
+        &out,
+        &RunOptions {
+            views: None,
+            resume: true,
+        },
+        &Progress::hidden(),
+    )
+    .unwrap();
+    assert_eq!(std::fs::read(&label).unwrap(), label_before);
+    let again: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("crease_hypotheses.json")).unwrap())
+            .unwrap();
+    assert_eq!(again, saved);
+}
+
+#[test]
 fn config_overrides_and_errors() {
     let cfg = Config::default()
         .with_overrides(&["planemap.lambda=0.25".to_string()])
