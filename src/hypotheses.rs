@@ -442,6 +442,17 @@ pub struct SweepHypothesesConfig {
     pub min_views: usize,
     /// Photo-consistency measure and window.
     pub photo: crate::photo::PhotoConfig,
+    /// Snap a sweep plane to a concentration of sparse points near it: the sweep's offsets
+    /// are only as fine as its step (≥ `step_r` R on reduced images), but a small plane
+    /// whose points got edge-like normals (a stair riser's nosing strip: its PCA
+    /// neighbourhoods reach into the tread) has its points at one offset. Within
+    /// ±1.5 steps of the sweep's offset, the densest window of width `snap_window_r` R is
+    /// taken if it holds at least [`MIN_SUPPORT_FLOOR`] points and `snap_density` times the
+    /// points a uniform spread over the range would put there; the plane moves to the
+    /// median offset of those points. Normals are not used. 0 = off.
+    pub snap_window_r: f64,
+    /// Density ratio required by the snap (see `snap_window_r`).
+    pub snap_density: f64,
 }
 
 impl Default for SweepHypothesesConfig {
@@ -462,6 +473,8 @@ impl Default for SweepHypothesesConfig {
                 window_radius: 2,
                 ..Default::default()
             },
+            snap_window_r: 1.0,
+            snap_density: 4.0,
         }
     }
 }
@@ -488,6 +501,16 @@ impl SweepHypothesesConfig {
                 return bad(format!("{name} = {v} must be in [0, 1]"));
             }
         }
+        let snap_ok = self.snap_window_r >= 0.0
+            && self.snap_window_r.is_finite()
+            && self.snap_density >= 1.0
+            && self.snap_density.is_finite();
+        if !snap_ok {
+            return bad(format!(
+                "snap_window_r = {} must be ≥ 0 and snap_density = {} ≥ 1",
+                self.snap_window_r, self.snap_density
+            ));
+        }
         if !(self.min_vote_fraction > 0.0 && self.min_vote_fraction <= 1.0) {
             return bad(format!(
                 "min_vote_fraction = {} must be in (0, 1]",
@@ -497,6 +520,52 @@ impl SweepHypothesesConfig {
         self.photo
             .validate()
             .map_err(|e| HypothesesError::Config(format!("sweep.photo: {e}")))
+    }
+}
+
+/// The sweep plane's offset `offset` along `d`, moved to the median offset of the densest
+/// window of `window` width among the points within `reach` of it, if that window holds at
+/// least [`MIN_SUPPORT_FLOOR`] points and `density` times a uniform share of the points in
+/// reach (see [`SweepHypothesesConfig::snap_window_r`]); unchanged otherwise.
+fn snap_to_points(
+    positions: &[Vector3<f64>],
+    d: &Vector3<f64>,
+    offset: f64,
+    reach: f64,
+    window: f64,
+    density: f64,
+) -> f64 {
+    if window <= 0.0 || reach <= 0.0 {
+        return offset;
+    }
+    let mut near: Vec<f64> = positions
+        .iter()
+        .map(|p| d.dot(p))
+        .filter(|o| o.is_finite() && (o - offset).abs() <= reach)
+        .collect();
+    near.sort_unstable_by(f64::total_cmp);
+    // Densest window: for each start point, the points within `window` after it (ties: the
+    // first, so the result does not depend on anything but the sorted offsets).
+    let (mut best, mut best_start) = (0usize, 0usize);
+    let mut end = 0;
+    for start in 0..near.len() {
+        end = end.max(start);
+        while end < near.len() && near[end] - near[start] <= window {
+            end += 1;
+        }
+        if end - start > best {
+            (best, best_start) = (end - start, start);
+        }
+    }
+    let uniform = near.len() as f64 * window / (2.0 * reach);
+    if best < MIN_SUPPORT_FLOOR || (best as f64) < density * uniform {
+        return offset;
+    }
+    let w = &near[best_start..best_start + best];
+    if w.len() % 2 == 1 {
+        w[w.len() / 2]
+    } else {
+        0.5 * (w[w.len() / 2 - 1] + w[w.len() / 2])
     }
 }
 
@@ -746,8 +815,15 @@ pub fn sweep_hypotheses(
                 sw += total[k][j] as f64;
                 so += total[k][j] as f64 * offset_of(k, j);
             }
-            let offset = so / sw;
             let d = dirs[k];
+            let offset = snap_to_points(
+                input.positions,
+                &d,
+                so / sw,
+                1.5 * steps[k],
+                sc.snap_window_r * input.scale,
+                sc.snap_density,
+            );
             let dup = existing
                 .iter()
                 .chain(out.iter())
@@ -1124,6 +1200,37 @@ mod tests {
             num_manhattan: m,
             warnings: vec![],
         }
+    }
+
+    /// A riser's points at y = 2.10 (±4 mm) next to tread points spread over y ∈ [2.10, 2.40]:
+    /// a sweep plane 2 cm off snaps to the riser; without the concentration it stays put.
+    #[test]
+    fn sweep_planes_snap_to_a_concentration_of_points_only() {
+        let mut rng = ChaCha8Rng::seed_from_u64(21);
+        let d = Vector3::y();
+        let riser: Vec<Vector3<f64>> = (0..40)
+            .map(|_| Vector3::new(rng.random(), 2.10 + rng.random_range(-0.004..0.004), 1.4))
+            .collect();
+        let tread: Vec<Vector3<f64>> = (0..150)
+            .map(|_| Vector3::new(rng.random(), rng.random_range(2.10..2.40), 1.44))
+            .collect();
+        let all: Vec<Vector3<f64>> = riser.iter().chain(&tread).copied().collect();
+        let (reach, window) = (0.045, 0.0138);
+        let snapped = snap_to_points(&all, &d, 2.12, reach, window, 4.0);
+        assert!((snapped - 2.10).abs() < 0.003, "{snapped}");
+        // The tread alone is a uniform spread: no snap.
+        assert_eq!(snap_to_points(&tread, &d, 2.25, reach, window, 4.0), 2.25);
+        // Too few points, or the snap off: no snap.
+        assert_eq!(
+            snap_to_points(&riser[..5], &d, 2.12, reach, window, 4.0),
+            2.12
+        );
+        assert_eq!(snap_to_points(&all, &d, 2.12, reach, 0.0, 4.0), 2.12);
+        // Nothing within reach: unchanged; non-finite points are ignored.
+        let mut far = all.clone();
+        far.push(Vector3::new(f64::NAN, 0.0, 0.0));
+        assert_eq!(snap_to_points(&far, &d, 3.5, reach, window, 4.0), 3.5);
+        assert!((snap_to_points(&far, &d, 2.12, reach, window, 4.0) - 2.10).abs() < 0.003);
     }
 
     #[test]
