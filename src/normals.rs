@@ -149,14 +149,12 @@ pub(crate) fn canonical_sign(n: Vector3<f64>) -> Vector3<f64> {
     }
 }
 
-/// Normals for the scene's cloud: given normals if present (and allowed), else PCA normals
-/// with the sampling scale computed by [`sampling_scale`].
-pub fn estimate_normals(
+/// The cloud's own normals (PMVS), unit-normalised, when it has them and
+/// `use_given_normals` allows; `None` otherwise.
+fn given_normals(
     scene: &Scene,
     config: &NormalsConfig,
-) -> Result<OrientedCloud, NormalsError> {
-    config.validate()?;
-    scene.cloud.validate(scene.views.len())?;
+) -> Result<Option<OrientedCloud>, NormalsError> {
     if config.use_given_normals {
         if let Some(given) = &scene.cloud.normals {
             let mut normals = Vec::with_capacity(given.len());
@@ -167,7 +165,7 @@ pub fn estimate_normals(
                 }
                 normals.push(n / len);
             }
-            return Ok(OrientedCloud {
+            return Ok(Some(OrientedCloud {
                 normals,
                 confidence: scene
                     .cloud
@@ -176,8 +174,22 @@ pub fn estimate_normals(
                     .map(|c| c.clamp(0.0, 1.0))
                     .collect(),
                 estimated: false,
-            });
+            }));
         }
+    }
+    Ok(None)
+}
+
+/// Normals for the scene's cloud: given normals if present (and allowed), else PCA normals
+/// with the sampling scale computed by [`sampling_scale`].
+pub fn estimate_normals(
+    scene: &Scene,
+    config: &NormalsConfig,
+) -> Result<OrientedCloud, NormalsError> {
+    config.validate()?;
+    scene.cloud.validate(scene.views.len())?;
+    if let Some(given) = given_normals(scene, config)? {
+        return Ok(given);
     }
     let r = sampling_scale(scene)?;
     estimate_normals_with_scale(scene, r, config)
@@ -208,7 +220,8 @@ fn median_kth_distance(tree: &ImmutableKdTree<f64, 3>, coords: &[[f64; 3]], k: u
     *d.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
-/// PCA normals for every point with a known sampling scale `r` (world units). Deterministic
+/// Given normals as [`estimate_normals`] takes them, else PCA normals for every point with a
+/// known sampling scale `r` (world units). Deterministic
 /// and independent of the thread count: each point's result depends only on its
 /// neighbourhood, sorted by (distance, index).
 pub fn estimate_normals_with_scale(
@@ -218,6 +231,9 @@ pub fn estimate_normals_with_scale(
 ) -> Result<OrientedCloud, NormalsError> {
     config.validate()?;
     scene.cloud.validate(scene.views.len())?;
+    if let Some(given) = given_normals(scene, config)? {
+        return Ok(given);
+    }
     if !(r > 0.0 && r.is_finite()) {
         return Err(NormalsError::Scale(ScaleError::Degenerate(r)));
     }
@@ -452,6 +468,19 @@ pub(crate) mod tests {
         assert!(!oc.estimated);
         assert_eq!(oc.normals, vec![Vector3::z(), Vector3::y()]);
         assert_eq!(oc.confidence, vec![0.9, 0.4]);
+        // The pipeline's entry point (scale known) honours them too; switched off, PCA runs.
+        let oc = estimate_normals_with_scale(&scene, 0.1, &NormalsConfig::default()).unwrap();
+        assert!(!oc.estimated);
+        assert_eq!(oc.normals, vec![Vector3::z(), Vector3::y()]);
+        let off = NormalsConfig {
+            use_given_normals: false,
+            ..Default::default()
+        };
+        assert!(
+            estimate_normals_with_scale(&scene, 0.1, &off)
+                .unwrap()
+                .estimated
+        );
         scene.cloud.normals = Some(vec![Vector3::zeros(), Vector3::y()]);
         assert!(matches!(
             estimate_normals(&scene, &NormalsConfig::default()),
