@@ -1434,6 +1434,12 @@ pub struct CreaseHypothesesConfig {
     /// A candidate within this many R of an existing hypothesis of the same direction is
     /// that hypothesis.
     pub merge_r: f64,
+    /// A view *sees* a crease hypothesis when it cast at least this many votes for it, as a
+    /// multiple of its image width; only those views count for `min_views`, and only they
+    /// are offered the hypothesis as a label (the rest keep their first labelling there).
+    /// Without it every view would carry every crease plane (room: 123 of them, 10× the
+    /// labels and the solve time of the first pass).
+    pub min_view_votes_per_width: f64,
 }
 
 impl Default for CreaseHypothesesConfig {
@@ -1444,6 +1450,7 @@ impl Default for CreaseHypothesesConfig {
             min_views: 2,
             max_normal_cos: 0.7,
             merge_r: 3.0,
+            min_view_votes_per_width: 0.25,
         }
     }
 }
@@ -1470,6 +1477,12 @@ impl CreaseHypothesesConfig {
         if !(self.merge_r >= 0.0 && self.merge_r.is_finite()) {
             return bad(format!("merge_r = {} must be ≥ 0", self.merge_r));
         }
+        if !(self.min_view_votes_per_width >= 0.0 && self.min_view_votes_per_width.is_finite()) {
+            return bad(format!(
+                "min_view_votes_per_width = {} must be ≥ 0",
+                self.min_view_votes_per_width
+            ));
+        }
         Ok(())
     }
 }
@@ -1488,6 +1501,16 @@ pub struct LabelledView<'a> {
     pub lines: &'a [bool],
 }
 
+/// A crease hypothesis and the views that see it (cast at least
+/// [`CreaseHypothesesConfig::min_view_votes_per_width`] votes for it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CreaseHypothesis {
+    /// The plane (support 0: no sparse points are counted).
+    pub hypothesis: PlaneHypothesis,
+    /// Indices into `Scene::views`, ascending.
+    pub views: Vec<usize>,
+}
+
 /// Crease hypotheses from labelled views (see [`CreaseHypothesesConfig`]), sorted by axis
 /// then offset, ids 0..; the caller renumbers them after the existing `hypotheses`. Only
 /// the Manhattan axes (`axes.num_manhattan`) are used. Deterministic: votes are summed in
@@ -1499,7 +1522,7 @@ pub fn crease_hypotheses(
     views: &[LabelledView<'_>],
     scale: f64,
     cfg: &CreaseHypothesesConfig,
-) -> Result<Vec<PlaneHypothesis>, HypothesesError> {
+) -> Result<Vec<CreaseHypothesis>, HypothesesError> {
     cfg.validate()?;
     if !(scale > 0.0 && scale.is_finite()) {
         return Err(HypothesesError::Input(format!(
@@ -1508,10 +1531,15 @@ pub fn crease_hypotheses(
     }
     let m = axes.num_manhattan.min(axes.directions.len());
     let dirs: Vec<Vector3<f64>> = axes.directions[..m].iter().map(|d| d.normalize()).collect();
-    // Per axis: offset bin (units of R) → (votes, sum of offsets, voting views).
-    type Bin = (u64, f64, Vec<bool>);
+    // Per axis: offset bin (units of R) → (votes, sum of offsets, votes per view).
+    type Bin = (u64, f64, Vec<u32>);
     let mut votes: Vec<std::collections::BTreeMap<i64, Bin>> = vec![Default::default(); m];
     let mut width = 0u32;
+    let min_view_votes: Vec<u32> = scene
+        .views
+        .iter()
+        .map(|v| ((cfg.min_view_votes_per_width * v.camera.width as f64).ceil() as u32).max(1))
+        .collect();
     for lv in views {
         let view = scene.views.get(lv.view_index).ok_or_else(|| {
             HypothesesError::Input(format!("view index {} out of range", lv.view_index))
@@ -1541,15 +1569,15 @@ pub fn crease_hypotheses(
                 let o = d.dot(&x);
                 let entry = votes[k]
                     .entry((o / scale).round() as i64)
-                    .or_insert_with(|| (0, 0.0, vec![false; scene.views.len()]));
+                    .or_insert_with(|| (0, 0.0, vec![0; scene.views.len()]));
                 entry.0 += 1;
                 entry.1 += o;
-                entry.2[lv.view_index] = true;
+                entry.2[lv.view_index] += 1;
             }
         }
     }
     let min_votes = (cfg.min_votes_per_width * width as f64).ceil() as u64;
-    let mut out: Vec<PlaneHypothesis> = Vec::new();
+    let mut out: Vec<CreaseHypothesis> = Vec::new();
     for (k, map) in votes.iter().enumerate() {
         let count = |b: i64| map.get(&b).map_or(0, |e| e.0);
         for (&b, bin) in map {
@@ -1560,29 +1588,38 @@ pub fn crease_hypotheses(
                 continue;
             }
             let mut sum = 0.0;
-            let mut seen = bin.2.clone();
+            let mut per_view = bin.2.clone();
             for e in [b - 1, b + 1].iter().filter_map(|c| map.get(c)) {
                 sum += e.1;
-                for (s, &t) in seen.iter_mut().zip(&e.2) {
-                    *s |= t;
+                for (s, &t) in per_view.iter_mut().zip(&e.2) {
+                    *s += t;
                 }
             }
-            if seen.iter().filter(|&&s| s).count() < cfg.min_views {
+            let seeing: Vec<usize> = (0..per_view.len())
+                .filter(|&v| per_view[v] >= min_view_votes[v])
+                .collect();
+            if seeing.len() < cfg.min_views {
                 continue;
             }
             let offset = (sum + bin.1) / here as f64;
             let d = dirs[k];
-            let known = hypotheses.iter().chain(&out).any(|h| {
-                let c = h.plane.normal.dot(&d);
-                c.abs() >= 1.0f64.to_radians().cos()
-                    && (h.plane.offset - c.signum() * offset).abs() < cfg.merge_r * scale
-            });
+            let known = hypotheses
+                .iter()
+                .chain(out.iter().map(|c| &c.hypothesis))
+                .any(|h| {
+                    let c = h.plane.normal.dot(&d);
+                    c.abs() >= 1.0f64.to_radians().cos()
+                        && (h.plane.offset - c.signum() * offset).abs() < cfg.merge_r * scale
+                });
             if !known {
-                out.push(PlaneHypothesis {
-                    id: out.len() as u32,
-                    plane: Plane { normal: d, offset },
-                    axis: Some(k),
-                    support: 0,
+                out.push(CreaseHypothesis {
+                    hypothesis: PlaneHypothesis {
+                        id: out.len() as u32,
+                        plane: Plane { normal: d, offset },
+                        axis: Some(k),
+                        support: 0,
+                    },
+                    views: seeing,
                 });
             }
         }
@@ -1661,7 +1698,7 @@ mod crease_tests {
         labelled: &[Labelling],
         hyps: &[PlaneHypothesis],
         cfg: &CreaseHypothesesConfig,
-    ) -> Vec<PlaneHypothesis> {
+    ) -> Vec<CreaseHypothesis> {
         let lv: Vec<LabelledView> = labelled
             .iter()
             .enumerate()
@@ -1684,12 +1721,25 @@ mod crease_tests {
         };
         let found = run(&scene, &labelled, &[wall()], &cfg);
         assert_eq!(found.len(), 1, "{found:?}");
-        let h = &found[0];
+        let h = &found[0].hypothesis;
         assert_eq!(h.axis, Some(2));
         assert!((h.plane.offset - 0.7).abs() < 0.01, "{}", h.plane.offset);
+        assert_eq!(found[0].views, vec![0, 1, 2]);
         // The wall's own axis never votes (parallel to its normal); nor does y, whose
         // votes spread along the line.
-        assert!(found.iter().all(|h| h.axis != Some(0)));
+        assert!(found.iter().all(|c| c.hypothesis.axis != Some(0)));
+        // A view without the line does not see the crease and is not offered it.
+        let mut two = labelled.clone();
+        two[1].2.iter_mut().for_each(|m| *m = false);
+        let found = run(&scene, &two, &[wall()], &cfg);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].views, vec![0, 2]);
+        // A view must cast enough votes to count.
+        let picky = CreaseHypothesesConfig {
+            min_view_votes_per_width: 50.0,
+            ..cfg
+        };
+        assert!(run(&scene, &labelled, &[wall()], &picky).is_empty());
         // Already a hypothesis: nothing new.
         let mut known = vec![wall()];
         known.push(PlaneHypothesis {

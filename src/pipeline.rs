@@ -20,8 +20,8 @@ use crate::axes::{
 };
 use crate::classify::{PlanarityMap, PlanarityModel};
 use crate::hypotheses::{
-    crease_hypotheses, plane_hypotheses, sweep_hypotheses, HypothesesConfig, HypothesesError,
-    HypothesesInput, LabelledView, PlaneHypothesis,
+    crease_hypotheses, plane_hypotheses, sweep_hypotheses, CreaseHypothesis, HypothesesConfig,
+    HypothesesError, HypothesesInput, LabelledView, PlaneHypothesis,
 };
 use crate::io::atomic::write_atomic;
 use crate::io::dense::{write_dense_map_path, DenseError};
@@ -273,8 +273,11 @@ pub struct Prepared {
     pub sweep_hypotheses: usize,
     /// How many of `hypotheses` (the very last ones, after the sweep's) are crease
     /// hypotheses ([`crate::hypotheses::crease_hypotheses`]), added by [`run`] after a first
-    /// labelling; offered like the sweep's. 0 after [`prepare`].
+    /// labelling; each is offered only in the views that see it (`crease_views`). 0 after
+    /// [`prepare`].
     pub crease_hypotheses: usize,
+    /// Per crease hypothesis (in order): the indices of the views that see it.
+    pub crease_views: Vec<Vec<usize>>,
     /// The undistorted images of all views, when a stage needs the neighbours' images (the
     /// sweep or the photo-consistency data term); `None` otherwise.
     pub images: Option<Vec<ImageF32>>,
@@ -395,6 +398,7 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
         hypotheses,
         sweep_hypotheses: num_sweep,
         crease_hypotheses: 0,
+        crease_views: Vec::new(),
         images,
         seconds: [t_normals, t_axes, t.elapsed().as_secs_f64()],
     })
@@ -440,10 +444,19 @@ pub fn view_energy(
     cfg: &Config,
 ) -> Result<PlanemapEnergy, PipelineError> {
     let planes: Vec<_> = prepared.hypotheses.iter().map(|h| h.plane).collect();
-    // The sweep's and the crease hypotheses have few or no sparse points: offered wherever
-    // they lie in front of the camera.
-    let offered = prepared.sweep_hypotheses + prepared.crease_hypotheses;
-    let photo_planes: Vec<u32> = (prepared.hypotheses.len() - offered..prepared.hypotheses.len())
+    // The sweep's and the crease hypotheses have few or no sparse points: the sweep's are
+    // offered wherever they lie in front of the camera, a crease hypothesis in the views that
+    // see it.
+    let creases_start = prepared.hypotheses.len() - prepared.crease_hypotheses;
+    let photo_planes: Vec<u32> = (creases_start - prepared.sweep_hypotheses..creases_start)
+        .chain(
+            prepared
+                .crease_views
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.binary_search(&view_index).is_ok())
+                .map(|(c, _)| creases_start + c),
+        )
         .map(|i| i as u32)
         .collect();
     let inputs = ViewInputs {
@@ -778,7 +791,7 @@ pub fn run(
     if cfg.hypotheses.creases.enabled {
         let saved_path = out.join(CREASES_FILE);
         let saved = if opts.resume {
-            read_crease_hypotheses(&saved_path, prepared.hypotheses.len())
+            read_crease_hypotheses(&saved_path, &scene, prepared.hypotheses.len())
         } else {
             None
         };
@@ -793,7 +806,7 @@ pub fn run(
             }
             None => {
                 let (extra, pass) = crease_pass(&scene, &prepared, &indices, cfg, progress)?;
-                write_crease_hypotheses(&saved_path, &extra)?;
+                write_crease_hypotheses(&saved_path, &scene, &extra)?;
                 progress.println(&format!(
                     "{} crease hypotheses from the first labelling",
                     extra.len()
@@ -805,7 +818,10 @@ pub fn run(
             }
         };
         prepared.crease_hypotheses = extra.len();
-        prepared.hypotheses.extend(extra);
+        for c in extra {
+            prepared.hypotheses.push(c.hypothesis);
+            prepared.crease_views.push(c.views);
+        }
     }
     let prepared = prepared;
     let bar = progress.bar(indices.len() as u64, "planemaps");
@@ -1127,7 +1143,7 @@ fn crease_pass(
     indices: &[usize],
     cfg: &Config,
     progress: &Progress,
-) -> Result<(Vec<PlaneHypothesis>, Vec<ViewPlanemap>), PipelineError> {
+) -> Result<(Vec<CreaseHypothesis>, Vec<ViewPlanemap>), PipelineError> {
     let bar = progress.bar(indices.len() as u64, "planemaps (first pass)");
     let pass: Vec<(ViewPlanemap, Vec<bool>)> = indices
         .par_iter()
@@ -1171,24 +1187,45 @@ fn crease_pass(
     )?
     .into_iter()
     .enumerate()
-    .map(|(i, mut h)| {
-        h.id = (base + i) as u32;
-        h
+    .map(|(i, mut c)| {
+        c.hypothesis.id = (base + i) as u32;
+        c
     })
     .collect();
     Ok((extra, pass.into_iter().map(|(v, _)| v).collect()))
 }
 
-fn write_crease_hypotheses(path: &Path, hyps: &[PlaneHypothesis]) -> Result<(), PipelineError> {
-    let records: Vec<PlaneRecord> = hyps
+/// One crease hypothesis in `crease_hypotheses.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct CreaseRecord {
+    id: u32,
+    normal: [f64; 3],
+    offset: f64,
+    axis: Option<usize>,
+    /// Image names of the views that see it (offered it as a label).
+    views: Vec<String>,
+}
+
+fn write_crease_hypotheses(
+    path: &Path,
+    scene: &Scene,
+    creases: &[CreaseHypothesis],
+) -> Result<(), PipelineError> {
+    let records: Vec<CreaseRecord> = creases
         .iter()
-        .map(|h| PlaneRecord {
-            id: h.id,
-            normal: [h.plane.normal.x, h.plane.normal.y, h.plane.normal.z],
-            offset: h.plane.offset,
-            axis: h.axis,
-            support: h.support,
-            views: Vec::new(),
+        .map(|c| {
+            let h = &c.hypothesis;
+            CreaseRecord {
+                id: h.id,
+                normal: [h.plane.normal.x, h.plane.normal.y, h.plane.normal.z],
+                offset: h.plane.offset,
+                axis: h.axis,
+                views: c
+                    .views
+                    .iter()
+                    .map(|&v| scene.views[v].name.clone())
+                    .collect(),
+            }
         })
         .collect();
     let json = serde_json::to_string_pretty(&records).map_err(|e| write_err(path, e))?;
@@ -1201,25 +1238,43 @@ fn write_crease_hypotheses(path: &Path, hyps: &[PlaneHypothesis]) -> Result<(), 
     .map_err(|e| write_err(path, e))
 }
 
-/// Saved crease hypotheses for `--resume`, if the file exists, parses, and continues the ids
-/// of the `base` hypotheses this run prepared; `None` (recompute) otherwise.
-fn read_crease_hypotheses(path: &Path, base: usize) -> Option<Vec<PlaneHypothesis>> {
+/// Saved crease hypotheses for `--resume`, if the file exists, parses, continues the ids
+/// of the `base` hypotheses this run prepared and names only views of `scene`; `None`
+/// (recompute) otherwise.
+fn read_crease_hypotheses(
+    path: &Path,
+    scene: &Scene,
+    base: usize,
+) -> Option<Vec<CreaseHypothesis>> {
     let text = std::fs::read_to_string(path).ok()?;
-    let records: Vec<PlaneRecord> = serde_json::from_str(&text).ok()?;
+    let records: Vec<CreaseRecord> = serde_json::from_str(&text).ok()?;
     records
         .into_iter()
         .enumerate()
         .map(|(i, r)| {
             let n = Vector3::new(r.normal[0], r.normal[1], r.normal[2]);
             let unit = (n.norm() - 1.0).abs() < 1e-9 && r.offset.is_finite();
-            (r.id as usize == base + i && unit).then_some(PlaneHypothesis {
-                id: r.id,
-                plane: crate::geometry::Plane {
-                    normal: n,
-                    offset: r.offset,
+            if r.id as usize != base + i || !unit {
+                return None;
+            }
+            let mut views = r
+                .views
+                .iter()
+                .map(|name| scene.views.iter().position(|v| &v.name == name))
+                .collect::<Option<Vec<usize>>>()?;
+            views.sort_unstable();
+            views.dedup();
+            Some(CreaseHypothesis {
+                hypothesis: PlaneHypothesis {
+                    id: r.id,
+                    plane: crate::geometry::Plane {
+                        normal: n,
+                        offset: r.offset,
+                    },
+                    axis: r.axis,
+                    support: 0,
                 },
-                axis: r.axis,
-                support: r.support,
+                views,
             })
         })
         .collect()
