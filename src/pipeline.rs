@@ -271,12 +271,10 @@ pub struct Prepared {
     /// ([`crate::hypotheses::sweep_hypotheses`]); they are offered in every view where they
     /// lie in front of the camera, since few sparse points support them.
     pub sweep_hypotheses: usize,
-    /// How many of `hypotheses` (the very last ones, after the sweep's) are crease
-    /// hypotheses ([`crate::hypotheses::crease_hypotheses`]), added by [`run`] after a first
-    /// labelling; each is offered only in the views that see it (`crease_views`). 0 after
-    /// [`prepare`].
-    pub crease_hypotheses: usize,
-    /// Per crease hypothesis (in order): the indices of the views that see it.
+    /// One entry per crease hypothesis ([`crate::hypotheses::crease_hypotheses`]) — the very
+    /// last of `hypotheses`, after the sweep's, added by [`run`] after a first labelling —
+    /// in order: the indices of the views that see it, the only views offered it. Empty
+    /// after [`prepare`].
     pub crease_views: Vec<Vec<usize>>,
     /// The undistorted images of all views, when a stage needs the neighbours' images (the
     /// sweep or the photo-consistency data term); `None` otherwise.
@@ -397,7 +395,6 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
         axes,
         hypotheses,
         sweep_hypotheses: num_sweep,
-        crease_hypotheses: 0,
         crease_views: Vec::new(),
         images,
         seconds: [t_normals, t_axes, t.elapsed().as_secs_f64()],
@@ -447,7 +444,7 @@ pub fn view_energy(
     // The sweep's and the crease hypotheses have few or no sparse points: the sweep's are
     // offered wherever they lie in front of the camera, a crease hypothesis in the views that
     // see it.
-    let creases_start = prepared.hypotheses.len() - prepared.crease_hypotheses;
+    let creases_start = prepared.hypotheses.len() - prepared.crease_views.len();
     let photo_planes: Vec<u32> = (creases_start - prepared.sweep_hypotheses..creases_start)
         .chain(
             prepared
@@ -817,7 +814,6 @@ pub fn run(
                 extra
             }
         };
-        prepared.crease_hypotheses = extra.len();
         for c in extra {
             prepared.hypotheses.push(c.hypothesis);
             prepared.crease_views.push(c.views);
@@ -878,7 +874,7 @@ pub fn run(
             .iter()
             .any(|w| matches!(w, crate::axes::AxesWarning::CompletedThird(_))),
         hypotheses: prepared.hypotheses.len(),
-        crease_hypotheses: prepared.crease_hypotheses,
+        crease_hypotheses: prepared.crease_views.len(),
         views: views
             .iter()
             .zip(&resumed)
