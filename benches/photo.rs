@@ -5,6 +5,8 @@
 //!   pixel·plane per second (criterion's "elements").
 //! - `ncc_window`: the same with 16 planes and 1 neighbour at 5×5 and 15×15 windows: the
 //!   box-sum NCC costs the same whatever the window.
+//! - `aggregation`: the same, 15×15 NCC against the sweep baseline's default, 5×5 NCC with
+//!   each cost slice guided-filtered at radius 7 (what the edge-aware aggregation costs).
 //!
 //! Images are synthetic value noise; the geometry is a small stereo rig so most warps land
 //! inside the neighbour images (as in real sweeps, some do not).
@@ -12,7 +14,7 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use nalgebra::Vector3;
 use planemap::geometry::{look_at, Camera};
-use planemap::photo::{fronto_parallel_planes, plane_cost_volume, PhotoConfig};
+use planemap::photo::{fronto_parallel_planes, plane_cost_volume, Aggregation, PhotoConfig};
 use planemap::{ImageF32, View};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -120,5 +122,52 @@ fn ncc_window(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, cost_volume, ncc_window);
+/// The sweep baseline's scoring before and after 2 Dec: 15×15 NCC alone against 5×5 NCC whose
+/// cost slices are then guided-filtered over 15×15 (radius 7) with the reference as guide.
+fn aggregation(c: &mut Criterion) {
+    let (views, images) = rig(1);
+    let planes = fronto_parallel_planes(&views[0], 3.0, 10.0, 16).unwrap();
+    let nbrs = [(&views[1], &images[1])];
+    let mut group = c.benchmark_group("aggregation_640x480_16planes_1nbr");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements((W * H) as u64 * planes.len() as u64));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let configs = [
+        (
+            "ncc15x15",
+            PhotoConfig {
+                window_radius: 7,
+                ..Default::default()
+            },
+        ),
+        (
+            "ncc5x5_guided15x15",
+            PhotoConfig {
+                window_radius: 2,
+                aggregation: Aggregation::Guided {
+                    radius: 7,
+                    eps: 1e-3,
+                },
+                ..Default::default()
+            },
+        ),
+    ];
+    for (name, cfg) in configs {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                pool.install(|| {
+                    black_box(
+                        plane_cost_volume(&views[0], &images[0], &nbrs, &planes, &cfg).unwrap(),
+                    )
+                })
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, cost_volume, ncc_window, aggregation);
 criterion_main!(benches);

@@ -225,7 +225,7 @@ pub fn bench_sweep_config() -> SweepBaselineConfig {
 
 /// Fronto-parallel planes of the benchmark's sweep (the baseline's own default is 128).
 pub const BENCH_SWEEP_PLANES: usize = 64;
-/// Neighbour views of the benchmark's sweep (the baseline's own default is 4).
+/// Neighbour views of the benchmark's sweep (the baseline's own default is 8).
 pub const BENCH_SWEEP_NEIGHBOURS: usize = 2;
 
 /// One method's scores on one scene.

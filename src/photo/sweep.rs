@@ -1872,4 +1872,130 @@ mod tests {
         .unwrap();
         assert!(winner_takes_all(&volume, &scene.views[0], &planes[..2], 1).is_err());
     }
+
+    /// A textured foreground half-plane (depth 4, bright) in front of a textured background
+    /// plane (depth 6, dark), seen by a reference camera and two neighbours 0.6 m to either
+    /// side; returns the views, images and the reference's true depth per pixel.
+    fn depth_edge_scene() -> (Vec<View>, Vec<ImageF32>, Vec<f64>) {
+        let cam = Camera::pinhole(
+            WIDTH,
+            HEIGHT,
+            FOCAL,
+            FOCAL,
+            WIDTH as f64 / 2.0,
+            HEIGHT as f64 / 2.0,
+        );
+        let views: Vec<View> = [-0.6, 0.0, 0.6]
+            .iter()
+            .enumerate()
+            .map(|(i, &dx)| {
+                let eye = Vector3::new(dx, -5.0, 0.0);
+                View {
+                    id: i as u32 + 1,
+                    name: format!("cam{i}"),
+                    camera: cam.clone(),
+                    cam_from_world: look_at(&eye, &(eye + Vector3::y()), &Vector3::z()),
+                    image_path: None,
+                }
+            })
+            .collect();
+        // (colour, depth along +y from the cameras' plane y = −5) of what a ray sees.
+        let hit = |o: &Vector3<f64>, d: &Vector3<f64>| -> (f64, f64) {
+            let front = o + d * ((-1.0 - o.y) / d.y);
+            if front.x < 0.0 {
+                let g = 0.55 + 0.4 * value_noise(front.x, front.z, 0.05, 3);
+                return (g, front.y + 5.0);
+            }
+            let back = o + d * ((1.0 - o.y) / d.y);
+            (0.05 + 0.4 * value_noise(back.x, back.z, 0.05, 4), 6.0)
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let images: Vec<ImageF32> = views
+            .iter()
+            .map(|view| {
+                let mut img = ImageF32::filled(WIDTH, HEIGHT, 1, 0.0);
+                for y in 0..HEIGHT {
+                    for x in 0..WIDTH {
+                        let mut acc = 0.0;
+                        for (ox, oy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
+                            let (o, d) = view.ray(&Vector2::new(x as f64 + ox, y as f64 + oy));
+                            acc += 0.25 * hit(&o, &d).0;
+                        }
+                        let noisy = acc as f32 + (rng.random::<f32>() - 0.5) / 255.0;
+                        img.pixel_mut(x, y)[0] = (noisy.clamp(0.0, 1.0) * 255.0).round() / 255.0;
+                    }
+                }
+                img
+            })
+            .collect();
+        let reference = &views[1];
+        let truth = (0..HEIGHT * WIDTH)
+            .map(|p| {
+                let (o, d) = reference.ray(&Vector2::new(
+                    (p % WIDTH) as f64 + 0.5,
+                    (p / WIDTH) as f64 + 0.5,
+                ));
+                hit(&o, &d).1
+            })
+            .collect();
+        (views, images, truth)
+    }
+
+    /// The sweep baseline's aggregation (5×5 NCC, guided filter over 15×15) against a plain
+    /// 15×15 NCC window at a depth edge: both are accurate away from it, but the big window
+    /// drags the foreground's depth over the background beside the edge (fattening) and the
+    /// edge-aware filter much less.
+    #[test]
+    fn guided_aggregation_fattens_depth_edges_less_than_a_big_window() {
+        let (views, images, truth) = depth_edge_scene();
+        let nbrs = [(&views[0], &images[0]), (&views[2], &images[2])];
+        let planes = fronto_parallel_planes(&views[1], 3.5, 7.0, 96).unwrap();
+        // Pixels within 7 px (horizontally) of a depth jump, and the rest; border excluded.
+        let w = WIDTH as usize;
+        let near_edge = |p: usize| {
+            let (x, y) = (p % w, p / w);
+            (x.saturating_sub(7)..(x + 8).min(w)).any(|q| (truth[y * w + q] - truth[p]).abs() > 0.5)
+        };
+        let score = |cfg: &PhotoConfig| {
+            let sweep = SweepConfig {
+                photo: *cfg,
+                ..Default::default()
+            };
+            let r = plane_sweep(&views[1], &images[1], &nbrs, &planes, &sweep).unwrap();
+            let (mut near, mut far) = ((0usize, 0usize), (0usize, 0usize));
+            for y in 10..HEIGHT as usize - 10 {
+                for x in 10..w - 10 {
+                    let p = y * w + x;
+                    let ok = ((r.depth[p] as f64 - truth[p]) / truth[p]).abs() <= 0.01;
+                    let slot = if near_edge(p) { &mut near } else { &mut far };
+                    slot.0 += usize::from(ok);
+                    slot.1 += 1;
+                }
+            }
+            (near.0 as f64 / near.1 as f64, far.0 as f64 / far.1 as f64)
+        };
+        let window = score(&PhotoConfig {
+            window_radius: 7,
+            ..Default::default()
+        });
+        let guided = score(&PhotoConfig {
+            window_radius: 2,
+            aggregation: Aggregation::Guided {
+                radius: 7,
+                eps: 1e-3,
+            },
+            ..Default::default()
+        });
+        eprintln!("near / away from the edge within 1%: 15x15 NCC {window:.3?}, 5x5 + guided {guided:.3?}");
+        assert!(
+            window.1 >= 0.95 && guided.1 >= 0.95,
+            "away from the edge: {window:?} {guided:?}"
+        );
+        assert!(
+            guided.0 >= window.0 + 0.3,
+            "near the edge: guided {} vs window {}",
+            guided.0,
+            window.0
+        );
+    }
 }

@@ -107,15 +107,19 @@ impl NonplanarConfig {
         Ok(())
     }
 
-    /// The plane-sweep settings of the label's depth.
+    /// The plane-sweep settings of the label's depth: the baseline's scoring, with these
+    /// plane and neighbour counts, and the best half of the neighbours averaged (as the
+    /// baseline's 4 of 8).
     pub fn sweep_config(&self) -> SweepBaselineConfig {
-        SweepBaselineConfig {
+        let mut cfg = SweepBaselineConfig {
             planes: self.sweep_planes,
             axis_planes: self.sweep_axis_planes,
             axis_families: self.sweep_axis_planes > 0,
             neighbours: self.sweep_neighbours,
             ..SweepBaselineConfig::default()
-        }
+        };
+        cfg.sweep.photo.best_k = (self.sweep_neighbours / 2).max(1);
+        cfg
     }
 }
 
