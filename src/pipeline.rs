@@ -506,6 +506,7 @@ pub fn label_view(
                 images,
                 view_index,
                 &prepared.axes.directions,
+                &energy.planes,
                 model,
                 &cfg.nonplanar,
             )

@@ -25,6 +25,8 @@ use serde::{Deserialize, Serialize};
 use super::{PlanemapConfig, PlanemapEnergy, PlanemapError};
 use crate::baseline::{sweep_view_with_axes, SweepBaselineConfig};
 use crate::classify::{PlanarityMap, PlanarityModel, ViewPoints};
+use crate::geometry::Plane;
+use crate::photo::{plane_cost_volume, select_neighbours};
 use crate::raster::ImageF32;
 use crate::scene::Scene;
 
@@ -55,6 +57,15 @@ pub struct NonplanarConfig {
     /// cost, [`crate::photo::SweepResult::confidence`]): where the best depth is ambiguous
     /// (plain paint, glass) the sweep's depth means nothing and the planes must decide.
     pub min_confidence: f64,
+    /// γ of the fit-gap cost (label-free geometric cue, data-cost units): every plane label
+    /// pays `γ·g`, `g = clamp((C_plane − C_sweep) / fit_gap_scale, 0, 1)`, where `C_sweep`
+    /// is the sweep's winning cost and `C_plane` the lowest cost of the view's plane labels
+    /// under the same measure and neighbours. Where every plane explains the pixel clearly
+    /// worse than the free-form sweep depth (statues, trees), the planes pay up to γ more;
+    /// where some plane does as well, nothing changes. 0 turns the cue off.
+    pub fit_gap_weight: f64,
+    /// The cost difference that counts as a full gap (`g = 1`).
+    pub fit_gap_scale: f64,
 }
 
 impl Default for NonplanarConfig {
@@ -68,6 +79,8 @@ impl Default for NonplanarConfig {
             sweep_axis_planes: 64,
             sweep_neighbours: 4,
             min_confidence: 0.1,
+            fit_gap_weight: 1.0,
+            fit_gap_scale: 0.2,
         }
     }
 }
@@ -99,6 +112,18 @@ impl NonplanarConfig {
             return bad(
                 "nonplanar.min_confidence",
                 format!("= {} must be in [0, 1]", self.min_confidence),
+            );
+        }
+        if !(self.fit_gap_weight.is_finite() && self.fit_gap_weight >= 0.0) {
+            return bad(
+                "nonplanar.fit_gap_weight",
+                format!("= {} must be finite and ≥ 0", self.fit_gap_weight),
+            );
+        }
+        if !(self.fit_gap_scale.is_finite() && self.fit_gap_scale > 0.0) {
+            return bad(
+                "nonplanar.fit_gap_scale",
+                format!("= {} must be finite and > 0", self.fit_gap_scale),
             );
         }
         if self.sweep_neighbours == 0 {
@@ -133,16 +158,22 @@ pub struct NonplanarView {
     pub depth: Vec<f32>,
     /// The sweep's winning photo-consistency cost per pixel in [0, 1] (1 where none).
     pub cost: Vec<f32>,
+    /// The lowest cost of the view's plane labels per pixel, scored like the sweep (same
+    /// measure, aggregation and neighbours; 1 where none); empty when not computed
+    /// (`fit_gap_weight` = 0).
+    pub best_plane_cost: Vec<f32>,
 }
 
 impl NonplanarView {
-    /// Classifies view `view_index` of an undistorted scene (`image` is its image, `images`
-    /// every view's) and sweeps it along `axes` (world directions).
+    /// Classifies view `view_index` of an undistorted scene (`images` holds every view's
+    /// image), sweeps it along `axes` (world directions) and, when `cfg.fit_gap_weight > 0`,
+    /// scores the view's plane labels `planes` the way the sweep scores its planes.
     pub fn compute(
         scene: &Scene,
         images: &[ImageF32],
         view_index: usize,
         axes: &[Vector3<f64>],
+        planes: &[Plane],
         model: &PlanarityModel,
         cfg: &NonplanarConfig,
     ) -> Result<Self, PlanemapError> {
@@ -152,31 +183,68 @@ impl NonplanarView {
             .planarity_map(image, Some(&points))
             .map_err(|e| PlanemapError::Input(format!("planarity classifier: {e}")))?;
         let n = image.width as usize * image.height as usize;
-        let (depth, cost) =
-            match sweep_view_with_axes(scene, images, view_index, axes, &cfg.sweep_config()) {
-                Ok(r) => (
-                    r.depth
-                        .iter()
-                        .zip(&r.confidence)
-                        .map(|(&z, &c)| {
-                            let sure = c as f64 >= cfg.min_confidence;
-                            if z.is_finite() && z > 0.0 && sure {
-                                z
-                            } else {
-                                0.0
-                            }
-                        })
-                        .collect(),
-                    r.cost,
-                ),
-                // No neighbour or no points: the label has no depth anywhere (infeasible).
-                Err(_) => (vec![0.0; n], vec![1.0; n]),
+        let sweep_cfg = cfg.sweep_config();
+        let (depth, cost) = match sweep_view_with_axes(scene, images, view_index, axes, &sweep_cfg)
+        {
+            Ok(r) => (
+                r.depth
+                    .iter()
+                    .zip(&r.confidence)
+                    .map(|(&z, &c)| {
+                        let sure = c as f64 >= cfg.min_confidence;
+                        if z.is_finite() && z > 0.0 && sure {
+                            z
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect(),
+                r.cost,
+            ),
+            // No neighbour or no points: the label has no depth anywhere (infeasible).
+            Err(_) => (vec![0.0; n], vec![1.0; n]),
+        };
+        let best_plane_cost = if cfg.fit_gap_weight > 0.0 && !planes.is_empty() {
+            let photo_err = |e: crate::photo::PhotoError| {
+                PlanemapError::Input(format!("non-planar fit gap: {e}"))
             };
+            let nb =
+                select_neighbours(scene, view_index, sweep_cfg.neighbours).map_err(photo_err)?;
+            if nb.is_empty() {
+                vec![1.0; n]
+            } else {
+                let pairs: Vec<_> = nb.iter().map(|&j| (&scene.views[j], &images[j])).collect();
+                let volume = plane_cost_volume(
+                    &scene.views[view_index],
+                    image,
+                    &pairs,
+                    planes,
+                    &sweep_cfg.sweep.photo,
+                )
+                .map_err(photo_err)?;
+                (0..n)
+                    .map(|p| volume.pixel_costs(p).iter().copied().fold(1.0f32, f32::min))
+                    .collect()
+            }
+        } else {
+            Vec::new()
+        };
         Ok(NonplanarView {
             planarity,
             depth,
             cost,
+            best_plane_cost,
         })
+    }
+
+    /// The fit-gap cost of the plane labels at pixel `p` ([`NonplanarConfig::fit_gap_weight`]);
+    /// 0 when the plane costs were not computed.
+    pub fn fit_gap_cost(&self, p: usize, cfg: &NonplanarConfig) -> f32 {
+        let Some(&plane) = self.best_plane_cost.get(p) else {
+            return 0.0;
+        };
+        let g = ((plane - self.cost[p]) as f64 / cfg.fit_gap_scale).clamp(0.0, 1.0);
+        (cfg.fit_gap_weight * g) as f32
     }
 
     /// Pixels where the non-planar label is allowed (the sweep gave a depth).
@@ -201,7 +269,8 @@ pub struct ExtendedEnergy<'a> {
 
 /// Adds the classifier's planar cost `β·(−ln(P + ε))` to every plane label of `energy` and
 /// returns the non-planar label's data cost per pixel: `β·(−ln(1 − P + ε))` plus the photo
-/// term's weight times the sweep's winning cost.
+/// term's weight times the sweep's winning cost. The plane labels also pay the fit-gap cost
+/// ([`NonplanarView::fit_gap_cost`]).
 pub fn add_classifier_costs(
     energy: &mut PlanemapEnergy,
     evidence: &NonplanarView,
@@ -220,7 +289,13 @@ pub fn add_classifier_costs(
             energy.unary.len()
         )));
     }
-    for (row, &c) in energy.unary.chunks_exact_mut(labels).zip(&costs.planar) {
+    for (p, (row, &c)) in energy
+        .unary
+        .chunks_exact_mut(labels)
+        .zip(&costs.planar)
+        .enumerate()
+    {
+        let c = c + evidence.fit_gap_cost(p, cfg);
         for u in row {
             *u += c;
         }
@@ -438,8 +513,55 @@ mod tests {
                 planarity,
                 depth,
                 cost,
+                best_plane_cost: Vec::new(),
             },
         )
+    }
+
+    /// The fit-gap cue: where the view's best plane costs more than the sweep's winner, every
+    /// plane label pays γ·min(1, gap / scale) more; elsewhere, and for the non-planar label,
+    /// nothing changes.
+    #[test]
+    fn fit_gap_charges_the_planes_where_the_sweep_fits_better() {
+        let (mut plain, ev) = extended();
+        let (mut energy, _) = extended();
+        let cfg = NonplanarConfig::default();
+        let pm = PlanemapConfig::default();
+        let np_plain = add_classifier_costs(&mut plain, &ev, &cfg, &pm).unwrap();
+        let n = ev.cost.len();
+        // Sweep cost 0.25 everywhere; the best plane costs 0.35 (gap 0.1), 0.75 (gap 0.5,
+        // beyond the scale) or 0.15 (the plane fits better) in turn.
+        let with_planes = NonplanarView {
+            best_plane_cost: (0..n).map(|p| [0.35, 0.75, 0.15][p % 3]).collect(),
+            ..ev.clone()
+        };
+        let np_gapped = add_classifier_costs(&mut energy, &with_planes, &cfg, &pm).unwrap();
+        assert_eq!(np_gapped, np_plain);
+        let l = energy.num_labels();
+        let g = cfg.fit_gap_weight as f32;
+        for p in [0usize, 1, 2, 3, 4, 5, 999, 1000, 1001] {
+            let want = [0.5 * g, g, 0.0][p % 3];
+            for a in 0..l {
+                let extra = energy.unary[p * l + a] - plain.unary[p * l + a];
+                assert!(
+                    (extra - want).abs() < 1e-5,
+                    "pixel {p} label {a}: {extra} vs {want}"
+                );
+            }
+        }
+        let off = NonplanarConfig {
+            fit_gap_weight: 0.0,
+            ..cfg
+        };
+        assert_eq!(with_planes.fit_gap_cost(1, &off), 0.0);
+        assert!(NonplanarConfig {
+            fit_gap_scale: 0.0,
+            ..NonplanarConfig::default()
+        }
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .contains("fit_gap_scale"));
     }
 
     #[test]
