@@ -7,6 +7,9 @@
 //! classifier's ([`crate::classify`]) `β·(−ln(1 − P + ε))` plus the photo term's weight times
 //! the sweep's winning cost, while every plane label pays `β·(−ln(P + ε))` on top of its
 //! visibility and photo costs, P being the classifier's probability that the pixel is planar.
+//! Plane labels also pay a *fit gap* (a label-free geometric cue): up to γ where the view's
+//! best plane, scored with the sweep's own measure, matches the neighbours worse than the
+//! sweep's winner does ([`NonplanarConfig::fit_gap_weight`]).
 //! The smoothness term is unchanged in form: the truncated 3D gap, in units of R, between the
 //! two labels' depths on the ray through the pixel pair's midpoint, where the non-planar
 //! label's depth on that ray is the mean of the two pixels' sweep depths (or the one that
