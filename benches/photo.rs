@@ -92,28 +92,25 @@ fn cost_volume(c: &mut Criterion) {
     group.finish();
 }
 
-fn ncc_window(c: &mut Criterion) {
+/// Single-threaded cost volumes of 16 fronto-parallel planes against 1 neighbour, one
+/// benchmark per `(name, config)` of `configs`, in the group `group_name`.
+fn single_thread_configs(c: &mut Criterion, group_name: &str, configs: &[(String, PhotoConfig)]) {
     let (views, images) = rig(1);
     let planes = fronto_parallel_planes(&views[0], 3.0, 10.0, 16).unwrap();
     let nbrs = [(&views[1], &images[1])];
-    let mut group = c.benchmark_group("ncc_window_640x480_16planes_1nbr");
+    let mut group = c.benchmark_group(group_name);
     group.sample_size(10);
     group.throughput(Throughput::Elements((W * H) as u64 * planes.len() as u64));
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
         .unwrap();
-    for radius in [2u32, 7] {
-        let cfg = PhotoConfig {
-            window_radius: radius,
-            ..Default::default()
-        };
-        let side = 2 * radius + 1;
-        group.bench_function(BenchmarkId::new("window", format!("{side}x{side}")), |b| {
+    for (name, cfg) in configs {
+        group.bench_function(name.as_str(), |b| {
             b.iter(|| {
                 pool.install(|| {
                     black_box(
-                        plane_cost_volume(&views[0], &images[0], &nbrs, &planes, &cfg).unwrap(),
+                        plane_cost_volume(&views[0], &images[0], &nbrs, &planes, cfg).unwrap(),
                     )
                 })
             })
@@ -122,29 +119,34 @@ fn ncc_window(c: &mut Criterion) {
     group.finish();
 }
 
+fn ncc_window(c: &mut Criterion) {
+    let configs: Vec<(String, PhotoConfig)> = [2u32, 7]
+        .iter()
+        .map(|&radius| {
+            let side = 2 * radius + 1;
+            let cfg = PhotoConfig {
+                window_radius: radius,
+                ..Default::default()
+            };
+            (format!("window/{side}x{side}"), cfg)
+        })
+        .collect();
+    single_thread_configs(c, "ncc_window_640x480_16planes_1nbr", &configs);
+}
+
 /// The sweep baseline's scoring before and after 2 Dec: 15×15 NCC alone against 5×5 NCC whose
 /// cost slices are then guided-filtered over 15×15 (radius 7) with the reference as guide.
 fn aggregation(c: &mut Criterion) {
-    let (views, images) = rig(1);
-    let planes = fronto_parallel_planes(&views[0], 3.0, 10.0, 16).unwrap();
-    let nbrs = [(&views[1], &images[1])];
-    let mut group = c.benchmark_group("aggregation_640x480_16planes_1nbr");
-    group.sample_size(10);
-    group.throughput(Throughput::Elements((W * H) as u64 * planes.len() as u64));
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
     let configs = [
         (
-            "ncc15x15",
+            "ncc15x15".to_string(),
             PhotoConfig {
                 window_radius: 7,
                 ..Default::default()
             },
         ),
         (
-            "ncc5x5_guided15x15",
+            "ncc5x5_guided15x15".to_string(),
             PhotoConfig {
                 window_radius: 2,
                 aggregation: Aggregation::Guided {
@@ -155,18 +157,7 @@ fn aggregation(c: &mut Criterion) {
             },
         ),
     ];
-    for (name, cfg) in configs {
-        group.bench_function(name, |b| {
-            b.iter(|| {
-                pool.install(|| {
-                    black_box(
-                        plane_cost_volume(&views[0], &images[0], &nbrs, &planes, &cfg).unwrap(),
-                    )
-                })
-            })
-        });
-    }
-    group.finish();
+    single_thread_configs(c, "aggregation_640x480_16planes_1nbr", &configs);
 }
 
 criterion_group!(benches, cost_volume, ncc_window, aggregation);

@@ -1083,6 +1083,52 @@ mod tests {
         top * (1.0 - b) + bottom * b
     }
 
+    /// Camera `i` of the test rigs: a `WIDTH`×`HEIGHT` pinhole at `eye` looking at `target`.
+    fn test_view(i: usize, eye: &Vector3<f64>, target: &Vector3<f64>) -> View {
+        View {
+            id: i as u32 + 1,
+            name: format!("cam{i}"),
+            camera: Camera::pinhole(
+                WIDTH,
+                HEIGHT,
+                FOCAL,
+                FOCAL,
+                WIDTH as f64 / 2.0,
+                HEIGHT as f64 / 2.0,
+            ),
+            cam_from_world: look_at(eye, target, &Vector3::z()),
+            image_path: None,
+        }
+    }
+
+    /// Ray-cast render of `view` (RGB) with 2×2 supersampling, ±0.5/255 noise and 8-bit
+    /// quantisation; `shade` gives the colour seen along a ray (origin, direction).
+    fn ray_cast(
+        view: &View,
+        seed: u64,
+        shade: impl Fn(&Vector3<f64>, &Vector3<f64>) -> [f32; 3],
+    ) -> ImageF32 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut img = ImageF32::filled(WIDTH, HEIGHT, 3, 0.0);
+        for y in 0..HEIGHT {
+            for x in 0..WIDTH {
+                let mut acc = [0.0f32; 3];
+                for (ox, oy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
+                    let (o, d) = view.ray(&Vector2::new(x as f64 + ox, y as f64 + oy));
+                    let c = shade(&o, &d);
+                    for k in 0..3 {
+                        acc[k] += 0.25 * c[k];
+                    }
+                }
+                for (k, out) in img.pixel_mut(x, y).iter_mut().enumerate() {
+                    let noisy = acc[k] + (rng.random::<f32>() - 0.5) / 255.0;
+                    *out = (noisy.clamp(0.0, 1.0) * 255.0).round() / 255.0;
+                }
+            }
+        }
+        img
+    }
+
     /// A plane textured on its `s < 0` half and plain paint on `s ≥ 0`, seen by a reference
     /// camera and two neighbours ~11° to either side.
     struct TestScene {
@@ -1103,31 +1149,15 @@ mod tests {
             [g as f32, (0.9 * g + 0.05) as f32, (g * g + 0.1) as f32]
         }
 
-        /// Ray-cast render with 2×2 supersampling, ±0.5/255 noise and 8-bit quantisation.
+        /// [`ray_cast`] of the plane.
         fn render(&self, view: &View, seed: u64) -> ImageF32 {
-            let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            let mut img = ImageF32::filled(WIDTH, HEIGHT, 3, 0.0);
-            for y in 0..HEIGHT {
-                for x in 0..WIDTH {
-                    let mut acc = [0.0f32; 3];
-                    for (ox, oy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
-                        let (o, d) = view.ray(&Vector2::new(x as f64 + ox, y as f64 + oy));
-                        let t = self
-                            .plane
-                            .intersect_ray(&o, &d)
-                            .expect("plane fills the view");
-                        let c = self.texture(&(o + d * t));
-                        for k in 0..3 {
-                            acc[k] += 0.25 * c[k];
-                        }
-                    }
-                    for (k, out) in img.pixel_mut(x, y).iter_mut().enumerate() {
-                        let noisy = acc[k] + (rng.random::<f32>() - 0.5) / 255.0;
-                        *out = (noisy.clamp(0.0, 1.0) * 255.0).round() / 255.0;
-                    }
-                }
-            }
-            img
+            ray_cast(view, seed, |o, d| {
+                let t = self
+                    .plane
+                    .intersect_ray(o, d)
+                    .expect("plane fills the view");
+                self.texture(&(o + d * t))
+            })
         }
 
         fn new() -> Self {
@@ -1135,14 +1165,6 @@ mod tests {
             let plane = Plane::through(&Vector3::zeros(), &normal);
             let u = normal.cross(&Vector3::z()).normalize();
             let v = normal.cross(&u);
-            let cam = Camera::pinhole(
-                WIDTH,
-                HEIGHT,
-                FOCAL,
-                FOCAL,
-                WIDTH as f64 / 2.0,
-                HEIGHT as f64 / 2.0,
-            );
             let eyes = [
                 Vector3::new(0.0, -5.0, 0.2),
                 Vector3::new(-1.0, -5.1, 0.35),
@@ -1151,13 +1173,7 @@ mod tests {
             let views = eyes
                 .iter()
                 .enumerate()
-                .map(|(i, eye)| View {
-                    id: i as u32 + 1,
-                    name: format!("cam{i}"),
-                    camera: cam.clone(),
-                    cam_from_world: look_at(eye, &Vector3::new(0.0, 0.0, 0.1), &Vector3::z()),
-                    image_path: None,
-                })
+                .map(|(i, eye)| test_view(i, eye, &Vector3::new(0.0, 0.0, 0.1)))
                 .collect();
             let mut scene = TestScene {
                 plane,
@@ -1877,29 +1893,15 @@ mod tests {
     /// plane (depth 6, dark), seen by a reference camera and two neighbours 0.6 m to either
     /// side; returns the views, images and the reference's true depth per pixel.
     fn depth_edge_scene() -> (Vec<View>, Vec<ImageF32>, Vec<f64>) {
-        let cam = Camera::pinhole(
-            WIDTH,
-            HEIGHT,
-            FOCAL,
-            FOCAL,
-            WIDTH as f64 / 2.0,
-            HEIGHT as f64 / 2.0,
-        );
         let views: Vec<View> = [-0.6, 0.0, 0.6]
             .iter()
             .enumerate()
             .map(|(i, &dx)| {
                 let eye = Vector3::new(dx, -5.0, 0.0);
-                View {
-                    id: i as u32 + 1,
-                    name: format!("cam{i}"),
-                    camera: cam.clone(),
-                    cam_from_world: look_at(&eye, &(eye + Vector3::y()), &Vector3::z()),
-                    image_path: None,
-                }
+                test_view(i, &eye, &(eye + Vector3::y()))
             })
             .collect();
-        // (colour, depth along +y from the cameras' plane y = −5) of what a ray sees.
+        // (grey level, depth along +y from the cameras' plane y = −5) of what a ray sees.
         let hit = |o: &Vector3<f64>, d: &Vector3<f64>| -> (f64, f64) {
             let front = o + d * ((-1.0 - o.y) / d.y);
             if front.x < 0.0 {
@@ -1909,24 +1911,10 @@ mod tests {
             let back = o + d * ((1.0 - o.y) / d.y);
             (0.05 + 0.4 * value_noise(back.x, back.z, 0.05, 4), 6.0)
         };
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
         let images: Vec<ImageF32> = views
             .iter()
-            .map(|view| {
-                let mut img = ImageF32::filled(WIDTH, HEIGHT, 1, 0.0);
-                for y in 0..HEIGHT {
-                    for x in 0..WIDTH {
-                        let mut acc = 0.0;
-                        for (ox, oy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
-                            let (o, d) = view.ray(&Vector2::new(x as f64 + ox, y as f64 + oy));
-                            acc += 0.25 * hit(&o, &d).0;
-                        }
-                        let noisy = acc as f32 + (rng.random::<f32>() - 0.5) / 255.0;
-                        img.pixel_mut(x, y)[0] = (noisy.clamp(0.0, 1.0) * 255.0).round() / 255.0;
-                    }
-                }
-                img
-            })
+            .enumerate()
+            .map(|(i, view)| ray_cast(view, 7 + i as u64, |o, d| [hit(o, d).0 as f32; 3]))
             .collect();
         let reference = &views[1];
         let truth = (0..HEIGHT * WIDTH)
