@@ -6,16 +6,15 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::axes::{dominant_axes, AxesConfig};
-use crate::normals::{estimate_normals, NormalsConfig};
+use crate::geometry::Plane;
 use crate::photo::{
     axis_planes, axis_sweep_planes, fronto_parallel_planes, multi_family_sweep, select_neighbours,
     Aggregation, PhotoConfig, PhotoError, PlaneFamily, SweepConfig, SweepResult,
 };
 pub use crate::photo::{refine_subplane, Spacing};
 use crate::raster::ImageF32;
-use crate::scene::{Scene, SceneError};
-use nalgebra::Vector3;
+use crate::scene::{Scene, SceneError, View};
+use nalgebra::{Vector2, Vector3};
 
 /// Errors of the baselines.
 #[derive(Debug, Error)]
@@ -149,15 +148,17 @@ impl SweepBaselineConfig {
     }
 }
 
-/// The scene's dominant directions for axis sweeps: sparse-point normals (given, or PCA)
-/// and their dominant axes with the pipeline's default settings. Empty when none are found
-/// (the sweep is then fronto-parallel only).
+/// The scene's dominant directions for axis sweeps: the pipeline's sparse-point stages with
+/// their default settings ([`crate::pipeline::sparse_stages`]: normals, dominant axes, and
+/// the refit of the axes from the points on their plane hypotheses). Empty when none are
+/// found (the sweep is then fronto-parallel only).
+///
+/// The refit matters: on the stairs the normals of the points alone put the "vertical" axis
+/// 11° off (nosing and tread points mix in their neighbourhoods), so the horizontal family
+/// matched no tread and the fronto-parallel family won there with wrong depths.
 pub fn scene_axes(scene: &Scene) -> Vec<Vector3<f64>> {
-    let Ok(oriented) = estimate_normals(scene, &NormalsConfig::default()) else {
-        return Vec::new();
-    };
-    dominant_axes(&oriented, &AxesConfig::default())
-        .map(|a| a.directions)
+    crate::pipeline::sparse_stages(scene, &crate::pipeline::Config::default())
+        .map(|s| s.axes.directions)
         .unwrap_or_default()
 }
 
@@ -178,26 +179,30 @@ pub fn sweep_view(
     sweep_view_with_axes(scene, images, index, &axes, cfg)
 }
 
-/// [`sweep_view`] with given sweep directions (world frame; used only when
-/// `cfg.axis_families`): the fronto-parallel family, then one family per direction.
-pub fn sweep_view_with_axes(
+/// What a view's plane sweep runs over: its plane families and its neighbour views.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepSetup {
+    /// The fronto-parallel family first, then one family per usable sweep direction.
+    pub families: Vec<PlaneFamily>,
+    /// Neighbour views ([`select_neighbours`]), best first; never empty.
+    pub neighbours: Vec<usize>,
+}
+
+/// The plane families and neighbours [`sweep_view_with_axes`] sweeps view `index` with:
+/// fronto-parallel planes over the depth range of the view's sparse points, and (with
+/// `cfg.axis_families`) one family per direction of `axes` over the points' extent along
+/// it. Split out so a caller can score other planes with the same neighbours.
+pub fn sweep_setup(
     scene: &Scene,
-    images: &[ImageF32],
     index: usize,
     axes: &[Vector3<f64>],
     cfg: &SweepBaselineConfig,
-) -> Result<SweepResult, BaselineError> {
+) -> Result<SweepSetup, BaselineError> {
     let count = scene.views.len();
     let view = scene.views.get(index).ok_or(BaselineError::Photo {
         view: format!("#{index}"),
         source: PhotoError::ViewIndex { index, count },
     })?;
-    if images.len() != count {
-        return Err(BaselineError::Config(format!(
-            "{} images for {count} views",
-            images.len()
-        )));
-    }
     let photo_err = |source| BaselineError::Photo {
         view: view.name.clone(),
         source,
@@ -256,7 +261,86 @@ pub fn sweep_view_with_axes(
             "no neighbour view shares points with this view".into(),
         )));
     }
-    let pairs: Vec<_> = neighbours
+    Ok(SweepSetup {
+        families,
+        neighbours,
+    })
+}
+
+/// How far apart, in pixels of the neighbour images, consecutive planes of `planes` (one
+/// family in sweep order) move a reference pixel: the `quantile` over a grid of reference
+/// pixels, every neighbour and every pair of consecutive planes whose points lie in front of
+/// both cameras and inside the neighbour's image. `None` when no such pair exists.
+///
+/// Plane sweeps sample the scene finely enough when this is about a pixel (Collins 1996;
+/// Gallup et al. 2007 choose their plane count the same way): coarser, a match falls
+/// between two planes and the narrow NCC basin leaves both neighbours of the winner at the
+/// outlier cost, so sub-plane interpolation cannot recover the depth.
+pub fn family_step_px(
+    view: &View,
+    neighbours: &[&View],
+    planes: &[Plane],
+    quantile: f64,
+) -> Option<f64> {
+    const GRID: usize = 8;
+    let cam = &view.camera;
+    let mut steps = Vec::new();
+    let mut prev: Vec<Option<Vector2<f64>>> = Vec::with_capacity(neighbours.len());
+    for gy in 0..GRID {
+        for gx in 0..GRID {
+            let xy = Vector2::new(
+                (gx as f64 + 0.5) / GRID as f64 * cam.width as f64,
+                (gy as f64 + 0.5) / GRID as f64 * cam.height as f64,
+            );
+            let (origin, dir) = view.ray(&xy);
+            prev.clear();
+            prev.resize(neighbours.len(), None);
+            for plane in planes {
+                let point = plane
+                    .intersect_ray(&origin, &dir)
+                    .filter(|&t| t > 0.0)
+                    .map(|t| origin + dir * t);
+                for (j, nb) in neighbours.iter().enumerate() {
+                    let here = point
+                        .and_then(|x| nb.project(&x))
+                        .filter(|(uv, z)| *z > 0.0 && nb.camera.contains(uv))
+                        .map(|(uv, _)| uv);
+                    if let (Some(a), Some(b)) = (prev[j], here) {
+                        steps.push((b - a).norm());
+                    }
+                    prev[j] = here;
+                }
+            }
+        }
+    }
+    if steps.is_empty() {
+        return None;
+    }
+    steps.sort_by(f64::total_cmp);
+    Some(percentile(&steps, quantile))
+}
+
+/// [`sweep_view`] with given sweep directions (world frame; used only when
+/// `cfg.axis_families`): the fronto-parallel family, then one family per direction
+/// ([`sweep_setup`]).
+pub fn sweep_view_with_axes(
+    scene: &Scene,
+    images: &[ImageF32],
+    index: usize,
+    axes: &[Vector3<f64>],
+    cfg: &SweepBaselineConfig,
+) -> Result<SweepResult, BaselineError> {
+    let setup = sweep_setup(scene, index, axes, cfg)?;
+    let count = scene.views.len();
+    if images.len() != count {
+        return Err(BaselineError::Config(format!(
+            "{} images for {count} views",
+            images.len()
+        )));
+    }
+    let view = &scene.views[index];
+    let pairs: Vec<_> = setup
+        .neighbours
         .iter()
         .map(|&j| (&scene.views[j], &images[j]))
         .collect();
@@ -264,11 +348,14 @@ pub fn sweep_view_with_axes(
         view,
         &images[index],
         &pairs,
-        &families,
+        &setup.families,
         &cfg.sweep,
         cfg.subplane,
     )
-    .map_err(photo_err)?;
+    .map_err(|source| BaselineError::Photo {
+        view: view.name.clone(),
+        source,
+    })?;
     Ok(result.sweep)
 }
 
@@ -345,6 +432,58 @@ mod tests {
         assert!(SweepBaselineConfig::default()
             .with_overrides(&["planes".into()])
             .is_err());
+    }
+
+    /// Angle (degrees) between `d` and the nearest world axis, sign ignored.
+    fn off_axis_deg(d: &Vector3<f64>) -> f64 {
+        let c = d.x.abs().max(d.y.abs()).max(d.z.abs()) / d.norm();
+        c.min(1.0).acos().to_degrees()
+    }
+
+    #[test]
+    fn sweep_directions_of_the_stairs_are_the_world_axes() {
+        // The stairs are axis-aligned; at their own 320×240 the normals of their points
+        // alone mix treads, risers and nosings and put one "axis" about 11° off, so the
+        // tread family matched no tread. The pipeline's refit from the plane hypotheses
+        // corrects it.
+        let spec = crate::synth::SceneSpec::from_path(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/stairs.toml"),
+        )
+        .unwrap();
+        // Through a COLMAP model on disk, as `planemap sweep` reads it.
+        let dir = tempfile::tempdir().unwrap();
+        crate::workspace::render_to_workspace(
+            &spec,
+            &Default::default(),
+            dir.path(),
+            &crate::progress::Progress::new(true),
+        )
+        .unwrap();
+        let scene = crate::io::colmap::read_model(&dir.path().join("sparse"))
+            .unwrap()
+            .to_scene(None)
+            .unwrap();
+        let unrefined = crate::axes::dominant_axes(
+            &crate::normals::estimate_normals(&scene, &Default::default()).unwrap(),
+            &Default::default(),
+        )
+        .unwrap();
+        let worst_unrefined = unrefined
+            .directions
+            .iter()
+            .map(off_axis_deg)
+            .fold(0.0, f64::max);
+        let axes = scene_axes(&scene);
+        assert!(axes.len() >= 2, "{axes:?}");
+        let worst = axes.iter().map(off_axis_deg).fold(0.0, f64::max);
+        assert!(
+            worst < 1.0,
+            "a sweep direction is {worst:.2}° off its world axis"
+        );
+        assert!(
+            worst_unrefined > 3.0 * worst.max(0.5),
+            "the refit should matter here: {worst_unrefined:.2}° before, {worst:.2}° after"
+        );
     }
 
     #[test]

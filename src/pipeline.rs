@@ -285,8 +285,41 @@ pub struct Prepared {
     pub seconds: [f64; 3],
 }
 
-/// Runs the global stages on an (undistorted) scene.
-pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
+/// The sparse-point stages: sampling scale, normals, dominant axes and the plane hypotheses
+/// of the points, with the axes refit from the points on their hypotheses
+/// (`cfg.axes.refine.iterations` rounds). No images are read.
+#[derive(Debug, Clone)]
+pub struct SparseStages {
+    /// Sampling scale R.
+    pub scale: f64,
+    /// Normals and confidences of the sparse points.
+    pub oriented: OrientedCloud,
+    /// Dominant directions after the refit.
+    pub axes: DominantAxes,
+    /// Plane hypotheses of the points along the refit axes.
+    pub hypotheses: Vec<PlaneHypothesis>,
+    /// Seconds spent: scale + normals, axes, hypotheses (with the refit).
+    pub seconds: [f64; 3],
+}
+
+fn hyp_input<'a>(
+    scene: &'a Scene,
+    oriented: &'a OrientedCloud,
+    axes: &'a DominantAxes,
+    scale: f64,
+) -> HypothesesInput<'a> {
+    HypothesesInput {
+        positions: &scene.cloud.positions,
+        normals: &oriented.normals,
+        confidence: &oriented.confidence,
+        axes,
+        scale,
+    }
+}
+
+/// Runs the sparse-point stages ([`SparseStages`]) on an (undistorted) scene; [`prepare`]
+/// starts with them, and the plane-sweep baseline takes its sweep directions from them.
+pub fn sparse_stages(scene: &Scene, cfg: &Config) -> Result<SparseStages, PipelineError> {
     if scene.views.is_empty() {
         return Err(PipelineError::Scene("the scene has no views".into()));
     }
@@ -307,20 +340,6 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
     let mut axes = dominant_axes(&oriented, &cfg.axes)?;
     let t_axes = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    fn hyp_input<'a>(
-        scene: &'a Scene,
-        oriented: &'a OrientedCloud,
-        axes: &'a DominantAxes,
-        scale: f64,
-    ) -> HypothesesInput<'a> {
-        HypothesesInput {
-            positions: &scene.cloud.positions,
-            normals: &oriented.normals,
-            confidence: &oriented.confidence,
-            axes,
-            scale,
-        }
-    }
     let mut hypotheses =
         plane_hypotheses(&hyp_input(scene, &oriented, &axes, scale), &cfg.hypotheses)?;
     // Axis refit from the points on the hypotheses, then hypotheses along the refit axes.
@@ -346,6 +365,25 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
         );
         hypotheses = plane_hypotheses(&hyp_input(scene, &oriented, &axes, scale), &cfg.hypotheses)?;
     }
+    Ok(SparseStages {
+        scale,
+        oriented,
+        axes,
+        hypotheses,
+        seconds: [t_normals, t_axes, t.elapsed().as_secs_f64()],
+    })
+}
+
+/// Runs the global stages on an (undistorted) scene.
+pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
+    let SparseStages {
+        scale,
+        oriented,
+        axes,
+        mut hypotheses,
+        seconds,
+    } = sparse_stages(scene, cfg)?;
+    let t = Instant::now();
     let input = hyp_input(scene, &oriented, &axes, scale);
     // Images are loaded once for all views when a stage matches views against each other.
     let wants_images =
@@ -397,7 +435,11 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
         sweep_hypotheses: num_sweep,
         crease_views: Vec::new(),
         images,
-        seconds: [t_normals, t_axes, t.elapsed().as_secs_f64()],
+        seconds: [
+            seconds[0],
+            seconds[1],
+            seconds[2] + t.elapsed().as_secs_f64(),
+        ],
     })
 }
 

@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::baseline::{sweep_view, SweepBaselineConfig};
+use crate::baseline::{scene_axes, sweep_view_with_axes, SweepBaselineConfig};
 use crate::io::labelpng::read_label_png;
 use crate::io::pfm::read_pfm_path;
 use crate::io::ply::{read_ply_mesh_path, read_ply_points_path};
@@ -647,12 +647,18 @@ fn run_method(
                 .map_err(|e| e.to_string())?;
             let t_load = t.elapsed().as_secs_f64();
             let t = Instant::now();
+            // The sweep directions are global: found once, not once per view.
+            let axes = if cfg.sweep.axis_families {
+                scene_axes(scene)
+            } else {
+                Vec::new()
+            };
             let views: Vec<ViewPrediction> = (0..scene.views.len())
                 .into_par_iter()
                 .map(|i| {
                     let cam = &scene.views[i].camera;
                     let n = (cam.width * cam.height) as usize;
-                    match sweep_view(scene, &images, i, &cfg.sweep) {
+                    match sweep_view_with_axes(scene, &images, i, &axes, &cfg.sweep) {
                         Ok(r) => ViewPrediction {
                             view_index: i,
                             normals_cam: r

@@ -2,8 +2,9 @@
 //! Pollefeys, CVPR 2010).
 //!
 //! With `[nonplanar] enabled`, a view's label set gains one label beyond its planes. Its depth
-//! at each pixel is ordinary plane-sweep stereo ([`crate::baseline::sweep_view_with_axes`],
-//! winner-takes-all with sub-plane refinement); its data cost is the planar/non-planar
+//! at each pixel is ordinary plane-sweep stereo (the baseline's plane families and neighbours,
+//! [`crate::baseline::sweep_setup`], winner-takes-all with sub-plane refinement,
+//! [`crate::photo::multi_family_sweep`]); its data cost is the planar/non-planar
 //! classifier's ([`crate::classify`]) `β·(−ln(1 − P + ε))` plus the photo term's weight times
 //! the sweep's winning cost, while every plane label pays `β·(−ln(P + ε))` on top of its
 //! visibility and photo costs, P being the classifier's probability that the pixel is planar.
@@ -26,10 +27,10 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::{PlanemapConfig, PlanemapEnergy, PlanemapError};
-use crate::baseline::{sweep_view_with_axes, SweepBaselineConfig};
+use crate::baseline::{sweep_setup, SweepBaselineConfig};
 use crate::classify::{PlanarityMap, PlanarityModel, ViewPoints};
 use crate::geometry::Plane;
-use crate::photo::{plane_cost_volume, select_neighbours};
+use crate::photo::{multi_family_sweep, plane_cost_volume};
 use crate::raster::ImageF32;
 use crate::scene::Scene;
 
@@ -187,48 +188,55 @@ impl NonplanarView {
             .map_err(|e| PlanemapError::Input(format!("planarity classifier: {e}")))?;
         let n = image.width as usize * image.height as usize;
         let sweep_cfg = cfg.sweep_config();
-        let (depth, cost) = match sweep_view_with_axes(scene, images, view_index, axes, &sweep_cfg)
-        {
-            Ok(r) => (
-                r.depth
-                    .iter()
-                    .zip(&r.confidence)
-                    .map(|(&z, &c)| {
-                        let sure = c as f64 >= cfg.min_confidence;
-                        if z.is_finite() && z > 0.0 && sure {
-                            z
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect(),
-                r.cost,
-            ),
-            // No neighbour or no points: the label has no depth anywhere (infeasible).
-            Err(_) => (vec![0.0; n], vec![1.0; n]),
+        let view = &scene.views[view_index];
+        // No neighbour or no points: the label has no depth anywhere (infeasible), and the
+        // fit gap is not computed.
+        let Ok(setup) = sweep_setup(scene, view_index, axes, &sweep_cfg) else {
+            return Ok(NonplanarView {
+                planarity,
+                depth: vec![0.0; n],
+                cost: vec![1.0; n],
+                best_plane_cost: Vec::new(),
+            });
         };
+        let photo_err =
+            |e: crate::photo::PhotoError| PlanemapError::Input(format!("non-planar sweep: {e}"));
+        let pairs: Vec<_> = setup
+            .neighbours
+            .iter()
+            .map(|&j| (&scene.views[j], &images[j]))
+            .collect();
+        let sweep = multi_family_sweep(
+            view,
+            image,
+            &pairs,
+            &setup.families,
+            &sweep_cfg.sweep,
+            sweep_cfg.subplane,
+        )
+        .map_err(photo_err)?
+        .sweep;
+        let depth = sweep
+            .depth
+            .iter()
+            .zip(&sweep.confidence)
+            .map(|(&z, &c)| {
+                let sure = c as f64 >= cfg.min_confidence;
+                if z.is_finite() && z > 0.0 && sure {
+                    z
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let cost = sweep.cost;
+        // The view's planes scored with the sweep's measure and neighbours.
         let best_plane_cost = if cfg.fit_gap_weight > 0.0 && !planes.is_empty() {
-            let photo_err = |e: crate::photo::PhotoError| {
-                PlanemapError::Input(format!("non-planar fit gap: {e}"))
-            };
-            let nb =
-                select_neighbours(scene, view_index, sweep_cfg.neighbours).map_err(photo_err)?;
-            if nb.is_empty() {
-                vec![1.0; n]
-            } else {
-                let pairs: Vec<_> = nb.iter().map(|&j| (&scene.views[j], &images[j])).collect();
-                let volume = plane_cost_volume(
-                    &scene.views[view_index],
-                    image,
-                    &pairs,
-                    planes,
-                    &sweep_cfg.sweep.photo,
-                )
+            let volume = plane_cost_volume(view, image, &pairs, planes, &sweep_cfg.sweep.photo)
                 .map_err(photo_err)?;
-                (0..n)
-                    .map(|p| volume.pixel_costs(p).iter().copied().fold(1.0f32, f32::min))
-                    .collect()
-            }
+            (0..n)
+                .map(|p| volume.pixel_costs(p).iter().copied().fold(1.0f32, f32::min))
+                .collect()
         } else {
             Vec::new()
         };
