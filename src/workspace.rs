@@ -8,6 +8,9 @@
 //! DIR/gt/depth/view_0000.pfm        camera-z depth at pixel centres (0 = background)
 //! DIR/gt/normals/view_0000.pfm      world-frame unit normals (3 channels)
 //! DIR/gt/planes/view_0000.png       16-bit global plane id per pixel (0 = non-planar)
+//! DIR/gt/texture/view_0000.png      16-bit, 1 where the surface is textured at the pixel's
+//!                                   scale, 0 on plain paint and background
+//!                                   ([`crate::synth::RenderedView::textured`])
 //! DIR/gt/planes.json                the global planes (id, normal, offset, label)
 //! DIR/gt/mesh.ply                   the scene's triangle mesh
 //! DIR/gt/scene.toml                 the scene description used
@@ -240,6 +243,7 @@ pub fn write_synth_workspace(
         &gt.join("depth"),
         &gt.join("normals"),
         &gt.join("planes"),
+        &gt.join("texture"),
     ] {
         create_dir(d)?;
     }
@@ -271,6 +275,13 @@ pub fn write_synth_workspace(
             w,
             h,
             &rv.plane_id,
+        )?;
+        let textured: Vec<u16> = rv.textured.iter().map(|&t| u16::from(t)).collect();
+        write_label_png(
+            &gt.join("texture").join(format!("{stem}.png")),
+            w,
+            h,
+            &textured,
         )?;
         bar.inc(1);
     }

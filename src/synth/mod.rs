@@ -119,6 +119,12 @@ pub struct RenderedView {
     pub normals: Vec<[f32; 3]>,
     /// Global plane id of that surface (see [`GtPlane`]); 0 = non-planar or background.
     pub plane_id: Vec<u16>,
+    /// That surface is textured at this view's pixel scale: its albedo varies by at least
+    /// `[sparse] min_texture_contrast` within two pixel footprints (what the SfM sampler
+    /// needs for a feature). False on plain paint and background. The ground truth of
+    /// "textured surface", where an image-based mask also counts plain paint next to a
+    /// poster edge or a shading crease.
+    pub textured: Vec<bool>,
     /// Exposure factor applied to this view.
     pub exposure: f64,
 }
@@ -213,6 +219,7 @@ fn render_all(
                 exposures[i],
                 spec.render.image_noise,
                 texture::mix64(seed ^ texture::mix64(0xA0000 + i as u64)),
+                spec.sparse.min_texture_contrast,
             );
             tick();
             r
@@ -242,6 +249,7 @@ fn rendered_views(
             depth: r.depth,
             normals: r.normals,
             plane_id: r.plane_id,
+            textured: r.textured,
             exposure,
         })
         .collect()

@@ -183,6 +183,9 @@ pub(crate) struct ViewRender {
     pub plane_id: Vec<u16>,
     /// Primitive index per pixel, `u32::MAX` for background.
     pub prim: Vec<u32>,
+    /// The surface under the pixel centre is textured at the pixel's scale (see
+    /// [`render_view`]).
+    pub textured: Vec<bool>,
 }
 
 /// Shading parameters shared by all pixels of a view.
@@ -231,7 +234,11 @@ pub(crate) fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
 }
 
 /// Renders one view: antialiased noisy image, noise-free image, and ground truth at the
-/// pixel-centre rays.
+/// pixel-centre rays. A pixel's surface counts as textured when its material's albedo
+/// contrast within two pixel footprints of the hit is at least `min_texture_contrast` —
+/// the test the SfM sampler uses for a feature (`[sparse] min_texture_contrast`), so plain
+/// paint never is, whatever its neighbours look like in the image.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn render_view(
     world: &World,
     shading: &Shading,
@@ -240,6 +247,7 @@ pub(crate) fn render_view(
     exposure: f64,
     noise_sigma: f64,
     noise_seed: u64,
+    min_texture_contrast: f64,
 ) -> ViewRender {
     let cam = &view.camera;
     let (w, h) = (cam.width as usize, cam.height as usize);
@@ -254,7 +262,9 @@ pub(crate) fn render_view(
         normals: vec![[0.0; 3]; n],
         plane_id: vec![0; n],
         prim: vec![u32::MAX; n],
+        textured: vec![false; n],
     };
+    let focal = cam.fx();
     let aa = antialias.max(1) as usize;
     let inv_samples = 1.0 / (aa * aa) as f64;
     let rows = out
@@ -267,9 +277,10 @@ pub(crate) fn render_view(
         .zip(out.normals.par_chunks_mut(w))
         .zip(out.plane_id.par_chunks_mut(w))
         .zip(out.prim.par_chunks_mut(w))
+        .zip(out.textured.par_chunks_mut(w))
         .enumerate();
     rows.for_each(
-        |(y, ((((((img, clean), gray), depth), normals), plane_id), prim))| {
+        |(y, (((((((img, clean), gray), depth), normals), plane_id), prim), textured))| {
             let mut rng = ChaCha8Rng::seed_from_u64(mix64(noise_seed ^ mix64(y as u64)));
             for x in 0..w {
                 // Ground truth along the pixel-centre ray (unit depth step ⇒ t = depth).
@@ -285,6 +296,10 @@ pub(crate) fn render_view(
                     let p = &world.prims[hit.prim as usize];
                     plane_id[x] = p.plane.map_or(0, |i| (i + 1) as u16);
                     prim[x] = hit.prim;
+                    let footprint = hit.t / focal;
+                    textured[x] =
+                        world.materials[p.material].contrast(surf.s, surf.t, 2.0 * footprint)
+                            >= min_texture_contrast;
                 }
                 // Colour: mean over an aa × aa grid of subpixel rays.
                 let mut c = [0.0f64; 3];

@@ -475,6 +475,56 @@ fn plain_paint_gets_no_points() {
 }
 
 #[test]
+fn textured_surface_truth_marks_texture_not_paint() {
+    // Plain paint everywhere: no pixel is a textured surface, whatever the image's edges.
+    let mut plain = demo();
+    for m in plain.materials.values_mut() {
+        m.texture = TextureKind::Paint;
+    }
+    let scene = render(&plain, &small(96), &quiet).unwrap();
+    assert!(scene.views.iter().all(|v| v.textured.iter().all(|&t| !t)));
+
+    // The demo: its rug, poster, picture, books and floor are textured, its walls, ceiling
+    // and cabinet are not; where the truth says textured, the image varies more.
+    let scene = render(&demo(), &small(96), &quiet).unwrap();
+    let (mut textured, mut surface) = (0usize, 0usize);
+    let (mut var_t, mut var_p, mut n_t, mut n_p) = (0.0f64, 0.0f64, 0usize, 0usize);
+    for v in &scene.views {
+        let (w, h) = (v.image.width as usize, v.image.height as usize);
+        let grey = v.image.to_gray();
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                let p = y * w + x;
+                if v.depth[p] <= 0.0 {
+                    continue;
+                }
+                surface += 1;
+                textured += usize::from(v.textured[p]);
+                let vals: Vec<f64> = (0..9)
+                    .map(|k| grey.data[(y + k / 3 - 1) * w + x + k % 3 - 1] as f64)
+                    .collect();
+                let mean = vals.iter().sum::<f64>() / 9.0;
+                let var = vals.iter().map(|a| (a - mean) * (a - mean)).sum::<f64>() / 9.0;
+                if v.textured[p] {
+                    var_t += var;
+                    n_t += 1;
+                } else {
+                    var_p += var;
+                    n_p += 1;
+                }
+            }
+        }
+    }
+    let share = textured as f64 / surface as f64;
+    assert!((0.1..0.9).contains(&share), "textured share {share}");
+    let (var_t, var_p) = (var_t / n_t as f64, var_p / n_p as f64);
+    assert!(
+        var_t > 2.0 * var_p,
+        "local variance textured {var_t} vs plain {var_p}"
+    );
+}
+
+#[test]
 fn rendering_is_deterministic_across_thread_counts() {
     let spec = demo();
     let opts = small(64);
