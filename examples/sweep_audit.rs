@@ -95,11 +95,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let gt_depth = read_pfm_path(&ws.join("gt/depth").join(format!("{stem}.pfm")))?;
         let (_, _, gt_ids) = read_label_png(&ws.join("gt/planes").join(format!("{stem}.png")))?;
         let setup = sweep_setup(&scene, v, &axes, &cfg)?;
-        let pairs: Vec<_> = setup
-            .neighbours
-            .iter()
-            .map(|&j| (&scene.views[j], &images[j]))
-            .collect();
+        let pairs = setup.pairs(&scene, &images);
         let nbr_views: Vec<_> = pairs.iter().map(|(nb, _)| *nb).collect();
         println!("{}:", view.name);
         for (f, fam) in setup.families.iter().enumerate() {
@@ -112,16 +108,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 q(1.0)
             );
         }
-        let result = multi_family_sweep(
+        let swept = multi_family_sweep(
             view,
             &images[v],
             &pairs,
             &setup.families,
             &cfg.sweep,
             cfg.subplane,
-        )?
-        .sweep;
-        let family = multi_family_family(&result, &setup.families);
+        )?;
+        let (result, family) = (swept.sweep, swept.family);
         // The ground-truth planes this view shows, scored like the sweep's planes.
         let mut ids: Vec<u16> = gt_ids.iter().copied().filter(|&i| i > 0).collect();
         ids.sort_unstable();
@@ -174,7 +169,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let k = ids.binary_search(&id).expect("ids lists every plane id");
             saturated += usize::from(truth_raw.pixel_costs(p)[k] >= 0.999);
             cheaper += usize::from(truth.pixel_costs(p)[k] < result.cost[p]);
-            by_family[family[p]] += 1;
+            by_family[(family[p] as usize).min(setup.families.len())] += 1;
         }
         errors.sort_by(f32::total_cmp);
         let median = errors.get(errors.len() / 2).copied().unwrap_or(0.0);
@@ -244,28 +239,4 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         totals[3]
     );
     Ok(())
-}
-
-/// Index of the family each pixel's winning plane belongs to (`families.len()` = none).
-fn multi_family_family(
-    result: &planemap::photo::SweepResult,
-    families: &[planemap::photo::PlaneFamily],
-) -> Vec<usize> {
-    let mut starts = Vec::with_capacity(families.len());
-    let mut next = 0usize;
-    for f in families {
-        starts.push(next);
-        next += f.planes.len();
-    }
-    result
-        .plane_index
-        .iter()
-        .map(|&k| {
-            if k == planemap::photo::NO_PLANE {
-                families.len()
-            } else {
-                starts.partition_point(|&s| s <= k as usize) - 1
-            }
-        })
-        .collect()
 }

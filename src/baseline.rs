@@ -188,6 +188,40 @@ pub struct SweepSetup {
     pub neighbours: Vec<usize>,
 }
 
+impl SweepSetup {
+    /// The neighbour views with their images, as the photo functions take them.
+    pub fn pairs<'a>(
+        &self,
+        scene: &'a Scene,
+        images: &'a [ImageF32],
+    ) -> Vec<(&'a View, &'a ImageF32)> {
+        self.neighbours
+            .iter()
+            .map(|&j| (&scene.views[j], &images[j]))
+            .collect()
+    }
+
+    /// Sweeps view `index` over the families with `cfg`'s scoring and sub-plane refinement
+    /// ([`multi_family_sweep`]); `images` holds every view's image.
+    pub fn sweep(
+        &self,
+        scene: &Scene,
+        images: &[ImageF32],
+        index: usize,
+        cfg: &SweepBaselineConfig,
+    ) -> Result<SweepResult, PhotoError> {
+        multi_family_sweep(
+            &scene.views[index],
+            &images[index],
+            &self.pairs(scene, images),
+            &self.families,
+            &cfg.sweep,
+            cfg.subplane,
+        )
+        .map(|r| r.sweep)
+    }
+}
+
 /// The plane families and neighbours [`sweep_view_with_axes`] sweeps view `index` with:
 /// fronto-parallel planes over the depth range of the view's sparse points, and (with
 /// `cfg.axis_families`) one family per direction of `axes` over the points' extent along
@@ -338,25 +372,12 @@ pub fn sweep_view_with_axes(
             images.len()
         )));
     }
-    let view = &scene.views[index];
-    let pairs: Vec<_> = setup
-        .neighbours
-        .iter()
-        .map(|&j| (&scene.views[j], &images[j]))
-        .collect();
-    let result = multi_family_sweep(
-        view,
-        &images[index],
-        &pairs,
-        &setup.families,
-        &cfg.sweep,
-        cfg.subplane,
-    )
-    .map_err(|source| BaselineError::Photo {
-        view: view.name.clone(),
-        source,
-    })?;
-    Ok(result.sweep)
+    setup
+        .sweep(scene, images, index, cfg)
+        .map_err(|source| BaselineError::Photo {
+            view: scene.views[index].name.clone(),
+            source,
+        })
 }
 
 /// The `q`-quantile (nearest rank) of sorted, non-empty `values`.

@@ -501,23 +501,24 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
         indices.len(),
         a.output.display()
     );
-    if gt.is_some() {
+    let report = |what: &str, s: &SplitScores, source: &str| {
         println!(
-            "depth within 1%: textured pixels {:.1}% (of {}), plain pixels {:.1}% (of {}) — texture read off the image (grey std over 7×7 ≥ 0.02)",
-            100.0 * total.textured_accuracy(),
-            total.textured,
-            100.0 * total.plain_accuracy(),
-            total.plain
-        );
-    }
-    if let Some(s) = surface_total {
-        println!(
-            "depth within 1%: textured surfaces {:.1}% (of {}), plain surfaces {:.1}% (of {}) — the renderer's ground truth (gt/texture)",
+            "depth within 1%: textured {what} {:.1}% (of {}), plain {what} {:.1}% (of {}) — {source}",
             100.0 * s.textured_accuracy(),
             s.textured,
             100.0 * s.plain_accuracy(),
             s.plain
+        )
+    };
+    if gt.is_some() {
+        report(
+            "pixels",
+            &total,
+            "texture read off the image (grey std over 7×7 ≥ 0.02)",
         );
+    }
+    if let Some(s) = &surface_total {
+        report("surfaces", s, "the renderer's ground truth (gt/texture)");
     }
     Ok(())
 }

@@ -30,7 +30,7 @@ use super::{PlanemapConfig, PlanemapEnergy, PlanemapError};
 use crate::baseline::{sweep_setup, SweepBaselineConfig};
 use crate::classify::{PlanarityMap, PlanarityModel, ViewPoints};
 use crate::geometry::Plane;
-use crate::photo::{multi_family_sweep, plane_cost_volume};
+use crate::photo::plane_cost_volume;
 use crate::raster::ImageF32;
 use crate::scene::Scene;
 
@@ -201,21 +201,9 @@ impl NonplanarView {
         };
         let photo_err =
             |e: crate::photo::PhotoError| PlanemapError::Input(format!("non-planar sweep: {e}"));
-        let pairs: Vec<_> = setup
-            .neighbours
-            .iter()
-            .map(|&j| (&scene.views[j], &images[j]))
-            .collect();
-        let sweep = multi_family_sweep(
-            view,
-            image,
-            &pairs,
-            &setup.families,
-            &sweep_cfg.sweep,
-            sweep_cfg.subplane,
-        )
-        .map_err(photo_err)?
-        .sweep;
+        let sweep = setup
+            .sweep(scene, images, view_index, &sweep_cfg)
+            .map_err(photo_err)?;
         let depth = sweep
             .depth
             .iter()
@@ -232,6 +220,7 @@ impl NonplanarView {
         let cost = sweep.cost;
         // The view's planes scored with the sweep's measure and neighbours.
         let best_plane_cost = if cfg.fit_gap_weight > 0.0 && !planes.is_empty() {
+            let pairs = setup.pairs(scene, images);
             let volume = plane_cost_volume(view, image, &pairs, planes, &sweep_cfg.sweep.photo)
                 .map_err(photo_err)?;
             (0..n)
