@@ -364,7 +364,6 @@ pub fn sweep_view_with_axes(
     axes: &[Vector3<f64>],
     cfg: &SweepBaselineConfig,
 ) -> Result<SweepResult, BaselineError> {
-    let setup = sweep_setup(scene, index, axes, cfg)?;
     let count = scene.views.len();
     if images.len() != count {
         return Err(BaselineError::Config(format!(
@@ -372,6 +371,7 @@ pub fn sweep_view_with_axes(
             images.len()
         )));
     }
+    let setup = sweep_setup(scene, index, axes, cfg)?;
     setup
         .sweep(scene, images, index, cfg)
         .map_err(|source| BaselineError::Photo {
@@ -505,6 +505,42 @@ mod tests {
             worst_unrefined > 3.0 * worst.max(0.5),
             "the refit should matter here: {worst_unrefined:.2}° before, {worst:.2}° after"
         );
+    }
+
+    #[test]
+    fn family_step_is_the_disparity_between_consecutive_planes() {
+        // A neighbour shifted sideways by b: a fronto-parallel plane at depth z moves every
+        // pixel by the disparity f·b/z, and planes evenly spaced in inverse depth by the
+        // same f·b·Δ(1/z) everywhere.
+        use crate::geometry::{Camera, Rigid3};
+        let (f, b) = (200.0, 0.3);
+        let view = |x: f64| View {
+            id: 0,
+            name: "v".into(),
+            camera: Camera::pinhole(320, 240, f, f, 160.0, 120.0),
+            cam_from_world: Rigid3::translation(-x, 0.0, 0.0),
+            image_path: None,
+        };
+        let (reference, neighbour) = (view(0.0), view(b));
+        let (near, far, n) = (2.0, 20.0, 64);
+        let planes = fronto_parallel_planes(&reference, near, far, n).unwrap();
+        let expected = f * b * (1.0 / near - 1.0 / far) / (n - 1) as f64;
+        for q in [0.0, 0.5, 1.0] {
+            let step = family_step_px(&reference, &[&neighbour], &planes, q).unwrap();
+            assert!(
+                (step - expected).abs() < 1e-6 * expected,
+                "q {q}: {step} vs {expected}"
+            );
+        }
+        // Twice the planes, half the step; no neighbour sees anything: None.
+        let fine = fronto_parallel_planes(&reference, near, far, 2 * n - 1).unwrap();
+        let half = family_step_px(&reference, &[&neighbour], &fine, 0.5).unwrap();
+        assert!((half - expected / 2.0).abs() < 1e-6 * expected);
+        let behind = View {
+            cam_from_world: Rigid3::translation(0.0, 0.0, -100.0),
+            ..view(0.0)
+        };
+        assert_eq!(family_step_px(&reference, &[&behind], &planes, 0.5), None);
     }
 
     #[test]
