@@ -69,6 +69,15 @@ pub struct SweepBaselineConfig {
     /// Without it the WTA depth is quantised to the plane spacing (a few % of depth for
     /// 128 planes over the usual range), which alone defeats a 1% tolerance.
     pub subplane: bool,
+    /// Densify a family whose consecutive planes move a pixel by more than this many pixels
+    /// in the neighbours (median over the view, [`family_step_px`]): its plane count is
+    /// scaled up to bring the median step to this value, at most to `max_family_planes`.
+    /// Gallup et al. (2007) space their sweeps so that no plane step exceeds a pixel of
+    /// disparity; coarser, the NCC basin is narrower than the step and sub-plane
+    /// refinement has nothing to fit. 0 = the configured counts as they are.
+    pub max_step_px: f64,
+    /// Cap on a densified family's plane count (time and memory grow linearly with it).
+    pub max_family_planes: usize,
     /// Scoring (measure, window, normalisation, aggregation).
     pub sweep: SweepConfig,
 }
@@ -84,6 +93,8 @@ impl Default for SweepBaselineConfig {
             near_factor: 0.8,
             far_factor: 1.25,
             subplane: true,
+            max_step_px: 1.0,
+            max_family_planes: 512,
             // 5×5 NCC whose cost slices are guided-filtered over 15×15 (cost-volume
             // filtering, Hosni et al. 2013): the weak textures (paving, floor boards, brick)
             // need 15×15 of support under 1% image noise, and the guided filter gives it
@@ -143,8 +154,28 @@ impl SweepBaselineConfig {
         let text = toml::to_string(&root).map_err(|e| bad(e.to_string()))?;
         let cfg: SweepBaselineConfig =
             toml::from_str(&text).map_err(|e| bad(format!("overrides: {e}")))?;
-        cfg.sweep.validate().map_err(|e| bad(e.to_string()))?;
+        cfg.validate()?;
         Ok(cfg)
+    }
+
+    /// Checks the values; the error names the field.
+    pub fn validate(&self) -> Result<(), BaselineError> {
+        let bad = |m: String| Err(BaselineError::Config(m));
+        if !(self.max_step_px.is_finite() && self.max_step_px >= 0.0) {
+            return bad(format!(
+                "max_step_px = {} (want a finite value ≥ 0; 0 = off)",
+                self.max_step_px
+            ));
+        }
+        if self.max_family_planes < 2 {
+            return bad(format!(
+                "max_family_planes = {} (want ≥ 2)",
+                self.max_family_planes
+            ));
+        }
+        self.sweep
+            .validate()
+            .map_err(|e| BaselineError::Config(e.to_string()))
     }
 }
 
@@ -232,6 +263,7 @@ pub fn sweep_setup(
     axes: &[Vector3<f64>],
     cfg: &SweepBaselineConfig,
 ) -> Result<SweepSetup, BaselineError> {
+    cfg.validate()?;
     let count = scene.views.len();
     let view = scene.views.get(index).ok_or(BaselineError::Photo {
         view: format!("#{index}"),
@@ -261,8 +293,30 @@ pub fn sweep_setup(
     depths.sort_by(f64::total_cmp);
     let near = percentile(&depths, 0.02) * cfg.near_factor;
     let far = (percentile(&depths, 0.98) * cfg.far_factor).max(near * 1.01);
+    let neighbours = select_neighbours(scene, index, cfg.neighbours).map_err(photo_err)?;
+    if neighbours.is_empty() {
+        return Err(photo_err(PhotoError::InvalidInput(
+            "no neighbour view shares points with this view".into(),
+        )));
+    }
+    let nbr_views: Vec<&View> = neighbours.iter().map(|&j| &scene.views[j]).collect();
+    // A family of `n` planes, `n` raised until its median step is at most `max_step_px`.
+    let dense = |n: usize, build: &dyn Fn(usize) -> Result<Vec<Plane>, PhotoError>| {
+        let planes = build(n)?;
+        if cfg.max_step_px <= 0.0 || n >= cfg.max_family_planes {
+            return Ok(planes);
+        }
+        match family_step_px(view, &nbr_views, &planes, 0.5) {
+            Some(step) if step > cfg.max_step_px => {
+                let wanted = (n as f64 * step / cfg.max_step_px).ceil() as usize;
+                build(wanted.min(cfg.max_family_planes))
+            }
+            _ => Ok(planes),
+        }
+    };
     let mut families = vec![PlaneFamily {
-        planes: fronto_parallel_planes(view, near, far, cfg.planes).map_err(photo_err)?,
+        planes: dense(cfg.planes, &|n| fronto_parallel_planes(view, near, far, n))
+            .map_err(photo_err)?,
         spacing: Spacing::InverseDepth,
     }];
     if cfg.axis_families && cfg.axis_planes > 0 {
@@ -279,21 +333,17 @@ pub fn sweep_setup(
             if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
                 continue;
             }
-            let n = cfg.axis_planes;
-            let offsets: Vec<f64> = (0..n)
-                .map(|i| lo + (hi - lo) * i as f64 / (n.max(2) - 1) as f64)
-                .collect();
+            let offsets = |n: usize| -> Result<Vec<Plane>, PhotoError> {
+                let offsets: Vec<f64> = (0..n)
+                    .map(|i| lo + (hi - lo) * i as f64 / (n.max(2) - 1) as f64)
+                    .collect();
+                axis_planes(&[u], &offsets)
+            };
             families.push(PlaneFamily {
-                planes: axis_planes(&[u], &offsets).map_err(photo_err)?,
+                planes: dense(cfg.axis_planes, &offsets).map_err(photo_err)?,
                 spacing: Spacing::Offset,
             });
         }
-    }
-    let neighbours = select_neighbours(scene, index, cfg.neighbours).map_err(photo_err)?;
-    if neighbours.is_empty() {
-        return Err(photo_err(PhotoError::InvalidInput(
-            "no neighbour view shares points with this view".into(),
-        )));
     }
     Ok(SweepSetup {
         families,
@@ -541,6 +591,87 @@ mod tests {
             ..view(0.0)
         };
         assert_eq!(family_step_px(&reference, &[&behind], &planes, 0.5), None);
+    }
+
+    #[test]
+    fn coarse_families_are_densified_to_the_step_target() {
+        // Two cameras 1 m apart sideways, f = 200 px, points between 2 and 20 m: 16
+        // fronto-parallel planes move a pixel by about 6 px each; the sweep densifies them
+        // to a median step of 1 px, up to the cap, and leaves them alone when told to.
+        use crate::geometry::{Camera, Rigid3};
+        use crate::scene::SparseCloud;
+        let view = |x: f64, id: u32| View {
+            id,
+            name: format!("v{id}"),
+            camera: Camera::pinhole(320, 240, 200.0, 200.0, 160.0, 120.0),
+            cam_from_world: Rigid3::translation(-x, 0.0, 0.0),
+            image_path: None,
+        };
+        let positions: Vec<Vector3<f64>> = (0..40)
+            .map(|i| {
+                let z = 2.0 + 18.0 * i as f64 / 39.0;
+                Vector3::new(0.5 + 0.1 * (i % 5) as f64, 0.1 * (i % 7) as f64 - 0.3, z)
+            })
+            .collect();
+        let n = positions.len();
+        let scene = Scene {
+            views: vec![view(0.0, 1), view(1.0, 2)],
+            cloud: SparseCloud {
+                positions,
+                colors: vec![[0; 3]; n],
+                normals: None,
+                tracks: vec![vec![0, 1]; n],
+                errors: vec![0.0; n],
+                confidence: vec![1.0; n],
+            },
+        };
+        let coarse = SweepBaselineConfig {
+            planes: 16,
+            axis_families: false,
+            ..Default::default()
+        };
+        let step = |setup: &SweepSetup| {
+            family_step_px(
+                &scene.views[0],
+                &[&scene.views[1]],
+                &setup.families[0].planes,
+                0.5,
+            )
+            .unwrap()
+        };
+        let off = sweep_setup(
+            &scene,
+            0,
+            &[],
+            &SweepBaselineConfig {
+                max_step_px: 0.0,
+                ..coarse.clone()
+            },
+        )
+        .unwrap();
+        assert_eq!(off.families[0].planes.len(), 16);
+        assert!(step(&off) > 4.0, "coarse step {}", step(&off));
+        let dense = sweep_setup(&scene, 0, &[], &coarse).unwrap();
+        let planes = dense.families[0].planes.len();
+        assert!((60..=130).contains(&planes), "{planes} planes");
+        assert!(step(&dense) <= 1.0 + 1e-9, "dense step {}", step(&dense));
+        let capped = sweep_setup(
+            &scene,
+            0,
+            &[],
+            &SweepBaselineConfig {
+                max_family_planes: 40,
+                ..coarse.clone()
+            },
+        )
+        .unwrap();
+        assert_eq!(capped.families[0].planes.len(), 40);
+        let bad = SweepBaselineConfig {
+            max_step_px: f64::NAN,
+            ..coarse
+        };
+        let err = sweep_setup(&scene, 0, &[], &bad).unwrap_err().to_string();
+        assert!(err.contains("max_step_px"), "{err}");
     }
 
     #[test]
