@@ -83,7 +83,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|v| v.load_undistorted_image())
         .collect::<Result<_, _>>()?;
     let axes = if cfg.axis_families {
-        scene_axes(&scene)
+        scene_axes(&scene, &cfg)
     } else {
         Vec::new()
     };

@@ -440,7 +440,7 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
     let gt = a.gt.clone().or_else(|| sibling_gt(&a.model));
     let cfg = planemap::baseline::SweepBaselineConfig::default().with_overrides(&a.set)?;
     let axes = if cfg.axis_families {
-        scene_axes(&scene)
+        scene_axes(&scene, &cfg)
     } else {
         Vec::new()
     };

@@ -649,7 +649,7 @@ fn run_method(
             let t = Instant::now();
             // The sweep directions are global: found once, not once per view.
             let axes = if cfg.sweep.axis_families {
-                scene_axes(scene)
+                scene_axes(scene, &cfg.sweep)
             } else {
                 Vec::new()
             };
