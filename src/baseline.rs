@@ -648,36 +648,25 @@ mod tests {
     #[test]
     fn the_vertical_is_read_off_upright_cameras() {
         // A world whose "up" is tilted off every axis; cameras around a point, pitched up
-        // and down by up to 30°, never rolled.
+        // and down by up to 27°, never rolled.
         let up = Vector3::new(0.3, -0.2, 0.93).normalize();
         let (a, b) = (
             up.cross(&Vector3::x()).normalize(),
             up.cross(&up.cross(&Vector3::x())).normalize(),
         );
-        let views: Vec<View> = (0..7)
-            .map(|i| {
-                let yaw = i as f64 * 0.7;
-                let eye = (a * yaw.cos() + b * yaw.sin()) * 10.0 + up * (i as f64 - 3.0);
-                upright_view(eye, up * 2.0, up)
-            })
-            .collect();
+        let eye = |i: usize| {
+            let yaw = i as f64 * 0.7;
+            (a * yaw.cos() + b * yaw.sin()) * 10.0 + up * (i as f64 - 3.0)
+        };
+        let views: Vec<View> = (0..7).map(|i| upright_view(eye(i), up * 2.0, up)).collect();
         let found = camera_vertical(&views).expect("upright cameras give a vertical");
         assert!(
             found.dot(&up) > (0.1f64).to_radians().cos(),
             "{found:?} vs {up:?}"
         );
         // Upside-down images give the opposite sign.
-        let flipped: Vec<View> = views
-            .iter()
-            .enumerate()
-            .map(|(i, v)| {
-                let yaw = i as f64 * 0.7;
-                let eye = (a * yaw.cos() + b * yaw.sin()) * 10.0 + up * (i as f64 - 3.0);
-                View {
-                    cam_from_world: crate::geometry::look_at(&eye, &(up * 2.0), &-up),
-                    ..v.clone()
-                }
-            })
+        let flipped: Vec<View> = (0..7)
+            .map(|i| upright_view(eye(i), up * 2.0, -up))
             .collect();
         assert!(camera_vertical(&flipped).unwrap().dot(&up) < -0.999);
         // Rolled cameras (each about its viewing axis by 20°): no common vertical.
