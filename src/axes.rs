@@ -272,7 +272,7 @@ impl HemisphereGrid {
 }
 
 /// Acute angle in degrees between two unit axes (sign-free).
-fn axial_angle_deg(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+pub(crate) fn axial_angle_deg(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
     a.dot(b).abs().clamp(0.0, 1.0).acos().to_degrees()
 }
 

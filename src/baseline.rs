@@ -263,11 +263,13 @@ const SAME_DIRECTION_DEG: f64 = 10.0;
 /// `axes` with fewer than three directions completed: with the vertical `up` unless one is
 /// within [`SAME_DIRECTION_DEG`] of it, then, while still fewer than three, with the
 /// horizontal direction across `up` and each horizontal axis. Three or more directions are
-/// returned as they are: the points' own estimate is the finer one.
+/// returned as they are: the points' own estimate is the finer one. Directions are unit
+/// vectors, as [`scene_axes`] gets them from the pipeline.
 pub fn complete_with_vertical(mut axes: Vec<Vector3<f64>>, up: &Vector3<f64>) -> Vec<Vector3<f64>> {
-    let close = SAME_DIRECTION_DEG.to_radians().cos();
+    use crate::axes::axial_angle_deg;
     let known = |axes: &[Vector3<f64>], d: &Vector3<f64>| {
-        axes.iter().any(|a| a.normalize().dot(d).abs() >= close)
+        axes.iter()
+            .any(|a| axial_angle_deg(a, d) <= SAME_DIRECTION_DEG)
     };
     if axes.len() >= 3 {
         return axes;
@@ -277,8 +279,8 @@ pub fn complete_with_vertical(mut axes: Vec<Vector3<f64>>, up: &Vector3<f64>) ->
     }
     let horizontal: Vec<Vector3<f64>> = axes
         .iter()
-        .map(|a| a.normalize())
-        .filter(|a| a.dot(up).abs() <= SAME_DIRECTION_DEG.to_radians().sin())
+        .copied()
+        .filter(|a| axial_angle_deg(a, up) >= 90.0 - SAME_DIRECTION_DEG)
         .collect();
     for h in horizontal {
         if axes.len() >= 3 {
