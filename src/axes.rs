@@ -102,6 +102,12 @@ pub struct AxesConfig {
     /// fractional threshold (courtyard's east/west walls: 27 normals, 1.5 %), and the
     /// photo-consistency sweep along it can then find their planes.
     pub complete_frame: bool,
+    /// With fewer than three Manhattan directions from the points, complete them with the
+    /// cameras' vertical ([`camera_vertical`]) and the horizontals across it
+    /// ([`DominantAxes::complete_with_vertical`], run by the pipeline): a lawn seen at
+    /// grazing angles has almost no sparse points, yet the photo-consistency sweep along
+    /// the vertical finds its plane. Nothing happens when the cameras were not held upright.
+    pub camera_vertical: bool,
     /// Behaviour when fewer than three Manhattan directions exist.
     pub on_missing: MissingAxes,
     /// Refit of the axes from the points on their plane hypotheses (run by the pipeline
@@ -127,6 +133,7 @@ impl Default for AxesConfig {
             extra_min_support_fraction: 0.05,
             extra_min_separation_deg: 20.0,
             complete_frame: true,
+            camera_vertical: true,
             on_missing: MissingAxes::Warn,
             refine: AxisRefineConfig::default(),
         }
@@ -207,6 +214,9 @@ pub enum AxesWarning {
     SnapSkipped,
     /// d3 was taken as d1 × d2 (`complete_frame`); this many normals lie near it.
     CompletedThird(usize),
+    /// This many Manhattan directions were added from the cameras' vertical
+    /// ([`DominantAxes::complete_with_vertical`]).
+    CompletedWithVertical(usize),
 }
 
 /// The dominant directions of the scene.
@@ -533,16 +543,10 @@ pub fn dominant_axes(
     for (d, s) in directions.iter().zip(support.iter_mut()) {
         *s = axial_stats(&normals, d, cos_tol).0;
     }
-    let mut pairwise_angles_deg = Vec::new();
-    for i in 0..directions.len() {
-        for j in i + 1..directions.len() {
-            pairwise_angles_deg.push((i, j, axial_angle_deg(&directions[i], &directions[j])));
-        }
-    }
     Ok(DominantAxes {
+        pairwise_angles_deg: pairwise_angles(&directions),
         directions,
         support,
-        pairwise_angles_deg,
         num_manhattan,
         warnings,
     })
@@ -691,14 +695,127 @@ pub fn refine_axes_from_planes(
         out.directions[order[1]] = b2;
         out.directions[order[2]] = c;
     }
-    out.pairwise_angles_deg.clear();
-    for i in 0..out.directions.len() {
-        for j in i + 1..out.directions.len() {
-            out.pairwise_angles_deg.push((
-                i,
-                j,
-                axial_angle_deg(&out.directions[i], &out.directions[j]),
-            ));
+    out.pairwise_angles_deg = pairwise_angles(&out.directions);
+    out
+}
+
+/// Largest mean squared sine of the angle between the cameras' image rows and the vertical
+/// for the cameras to count as upright (about 6° of roll, root mean square).
+const MAX_MEAN_ROLL_SIN2: f64 = 0.01;
+
+/// The world's vertical as the cameras' orientation tells it, when they were held upright
+/// (no roll: every image row horizontal, as photographs of buildings usually are): the
+/// direction most nearly perpendicular to every view's image x-axis, signed to agree with
+/// the images' "up". `None` for fewer than two views, when the rows are not close to one
+/// plane (cameras rolled, or no common vertical), or when they are all nearly parallel (a
+/// facade walk: any direction across them would do, and the images' "up" is tilted by the
+/// cameras' pitch).
+pub fn camera_vertical(views: &[crate::scene::View]) -> Option<Vector3<f64>> {
+    if views.len() < 2 {
+        return None;
+    }
+    let mut scatter = nalgebra::Matrix3::<f64>::zeros();
+    let mut mean_up = Vector3::zeros();
+    for v in views {
+        let rot = v.cam_from_world.rotation;
+        // Rows of R are the camera axes in world coordinates: x right, y down.
+        let right = rot.inverse_transform_vector(&Vector3::x());
+        let down = rot.inverse_transform_vector(&Vector3::y());
+        scatter += right * right.transpose();
+        mean_up -= down;
+    }
+    let n = views.len() as f64;
+    let eig = nalgebra::SymmetricEigen::new(scatter / n);
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+    let (l0, l1) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]]);
+    if l0 > MAX_MEAN_ROLL_SIN2 || l1 < 4.0 * MAX_MEAN_ROLL_SIN2 {
+        return None;
+    }
+    let up: Vector3<f64> = eig.eigenvectors.column(order[0]).into_owned();
+    let along = up.dot(&mean_up) / n;
+    if along.abs() < 0.1 {
+        // The images' "up" does not pick a side (cameras looking straight up or down).
+        return None;
+    }
+    Some(if along < 0.0 { -up } else { up })
+}
+
+/// Directions closer than this (degrees, sign ignored) count as the same sweep direction.
+const SAME_DIRECTION_DEG: f64 = 10.0;
+
+/// The directions that complete the Manhattan directions `known` (fewer than three) with
+/// the vertical `up` (unit): `up` itself unless a known direction is within
+/// [`SAME_DIRECTION_DEG`] of it, then, while still fewer than three, the horizontal across
+/// `up` and each horizontal known direction. Nothing for three or more: the points' own
+/// estimate is the finer one.
+pub fn vertical_completion(known: &[Vector3<f64>], up: &Vector3<f64>) -> Vec<Vector3<f64>> {
+    let mut all: Vec<Vector3<f64>> = known.iter().map(|d| d.normalize()).collect();
+    if all.len() >= 3 {
+        return Vec::new();
+    }
+    let is_known = |all: &[Vector3<f64>], d: &Vector3<f64>| {
+        all.iter()
+            .any(|a| axial_angle_deg(a, d) <= SAME_DIRECTION_DEG)
+    };
+    if !is_known(&all, up) {
+        all.push(*up);
+    }
+    let horizontal: Vec<Vector3<f64>> = all
+        .iter()
+        .copied()
+        .filter(|a| axial_angle_deg(a, up) >= 90.0 - SAME_DIRECTION_DEG)
+        .collect();
+    for h in horizontal {
+        if all.len() >= 3 {
+            break;
+        }
+        let across = up.cross(&h).normalize();
+        if !is_known(&all, &across) {
+            all.push(across);
+        }
+    }
+    all.split_off(known.len())
+}
+
+impl DominantAxes {
+    /// Completes fewer than three Manhattan directions with the vertical `up` and the
+    /// horizontals across it ([`vertical_completion`]), inserted after the Manhattan
+    /// directions (before any extra one) in the canonical sign, with the axial support of
+    /// `normals` within `cone_deg` (the points rarely give any: that is why they were
+    /// missing). Returns how many were added; a warning records it.
+    pub fn complete_with_vertical(
+        &mut self,
+        up: &Vector3<f64>,
+        normals: &[Vector3<f64>],
+        cone_deg: f64,
+    ) -> usize {
+        let m = self.num_manhattan.min(self.directions.len());
+        let added = vertical_completion(&self.directions[..m], &up.normalize());
+        if added.is_empty() {
+            return 0;
+        }
+        let cos_tol = cone_deg.to_radians().cos();
+        for (i, d) in added.iter().enumerate() {
+            let d = canonical_sign(*d);
+            let support = axial_stats(normals, &d, cos_tol).0;
+            self.directions.insert(m + i, d);
+            self.support.insert(m + i, support);
+        }
+        self.num_manhattan = m + added.len();
+        self.pairwise_angles_deg = pairwise_angles(&self.directions);
+        self.warnings
+            .push(AxesWarning::CompletedWithVertical(added.len()));
+        added.len()
+    }
+}
+
+/// For each pair `i < j` of `directions`, their acute angle in degrees.
+fn pairwise_angles(directions: &[Vector3<f64>]) -> Vec<(usize, usize, f64)> {
+    let mut out = Vec::new();
+    for i in 0..directions.len() {
+        for j in i + 1..directions.len() {
+            out.push((i, j, axial_angle_deg(&directions[i], &directions[j])));
         }
     }
     out
@@ -707,6 +824,7 @@ pub fn refine_axes_from_planes(
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::scene::View;
     use nalgebra::{Rotation3, Unit};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -1088,5 +1206,119 @@ pub(crate) mod tests {
             dominant_axes(&OrientedCloud::default(), &AxesConfig::default()),
             Err(AxesError::NoNormals(1e-3))
         );
+    }
+
+    /// A pinhole view at `eye` looking at `target` with image "up" towards `up`.
+    fn upright_view(eye: Vector3<f64>, target: Vector3<f64>, up: Vector3<f64>) -> View {
+        View {
+            id: 1,
+            name: "v".into(),
+            camera: crate::geometry::Camera::pinhole(100, 80, 100.0, 100.0, 50.0, 40.0),
+            cam_from_world: crate::geometry::look_at(&eye, &target, &up),
+            image_path: None,
+        }
+    }
+
+    #[test]
+    fn the_vertical_is_read_off_upright_cameras() {
+        // A world whose "up" is tilted off every axis; cameras around a point, pitched up
+        // and down by up to 27°, never rolled.
+        let up = Vector3::new(0.3, -0.2, 0.93).normalize();
+        let (a, b) = (
+            up.cross(&Vector3::x()).normalize(),
+            up.cross(&up.cross(&Vector3::x())).normalize(),
+        );
+        let eye = |i: usize| {
+            let yaw = i as f64 * 0.7;
+            (a * yaw.cos() + b * yaw.sin()) * 10.0 + up * (i as f64 - 3.0)
+        };
+        let views: Vec<View> = (0..7).map(|i| upright_view(eye(i), up * 2.0, up)).collect();
+        let found = camera_vertical(&views).expect("upright cameras give a vertical");
+        assert!(
+            found.dot(&up) > (0.1f64).to_radians().cos(),
+            "{found:?} vs {up:?}"
+        );
+        // Upside-down images give the opposite sign.
+        let flipped: Vec<View> = (0..7)
+            .map(|i| upright_view(eye(i), up * 2.0, -up))
+            .collect();
+        assert!(camera_vertical(&flipped).unwrap().dot(&up) < -0.999);
+        // Rolled cameras (each about its viewing axis by 20°): no common vertical.
+        let rolled: Vec<View> = views
+            .iter()
+            .map(|v| {
+                let roll = nalgebra::UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.35);
+                View {
+                    cam_from_world: nalgebra::Isometry3::from_parts(
+                        nalgebra::Translation3::identity(),
+                        roll,
+                    ) * v.cam_from_world,
+                    ..v.clone()
+                }
+            })
+            .collect();
+        assert_eq!(camera_vertical(&rolled), None);
+        // All looking the same way (a facade walk): the rows are parallel, no answer.
+        let walk: Vec<View> = (0..5)
+            .map(|i| {
+                let eye = a * i as f64;
+                upright_view(eye, eye + b * 10.0 - up * 3.0, up)
+            })
+            .collect();
+        assert_eq!(camera_vertical(&walk), None);
+        assert_eq!(camera_vertical(&views[..1]), None);
+    }
+
+    #[test]
+    fn fewer_than_three_axes_are_completed_with_the_vertical() {
+        let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
+        let parallel = |a: &Vector3<f64>, b: &Vector3<f64>| a.dot(b).abs() > 0.9999;
+        // One wall direction: the vertical and the horizontal across both join it.
+        let added = vertical_completion(&[y], &z);
+        assert_eq!(added.len(), 2);
+        assert!(parallel(&added[0], &z) && parallel(&added[1], &x));
+        // A near-vertical axis (5° off) stands for the vertical; its horizontal partner is
+        // crossed with the cameras' vertical.
+        let tilted = (z + x * 5f64.to_radians().tan()).normalize();
+        let added = vertical_completion(&[tilted, y], &z);
+        assert_eq!(added.len(), 1);
+        assert!(parallel(&added[0], &x));
+        // Three directions (a non-Manhattan scene's included) are kept as they are.
+        let roof = (y + z).normalize();
+        assert!(vertical_completion(&[x, y, roof], &z).is_empty());
+        // A lone slanted direction gains the vertical only: nothing horizontal to cross.
+        assert_eq!(vertical_completion(&[roof], &z), vec![z]);
+        assert_eq!(vertical_completion(&[], &z), vec![z]);
+
+        // On the axes: inserted after the Manhattan directions, before the extras, in the
+        // canonical sign, with their support and angles, and a warning.
+        let mut axes = DominantAxes {
+            directions: vec![y, roof],
+            support: vec![40, 9],
+            pairwise_angles_deg: vec![(0, 1, 45.0)],
+            num_manhattan: 1,
+            warnings: vec![],
+        };
+        let normals = [z, -z, x, y];
+        assert_eq!(axes.complete_with_vertical(&-z, &normals, 5.0), 2);
+        assert_eq!(axes.num_manhattan, 3);
+        assert_eq!(axes.directions.len(), 4);
+        assert_eq!(axes.directions[1], z);
+        assert!(parallel(&axes.directions[2], &x) && axes.directions[2].x > 0.0);
+        assert_eq!(axes.directions[3], roof);
+        assert_eq!(axes.support, vec![40, 2, 1, 9]);
+        assert_eq!(axes.pairwise_angles_deg.len(), 6);
+        assert!(axes
+            .pairwise_angles_deg
+            .iter()
+            .all(
+                |&(i, j, a)| (a - axial_angle_deg(&axes.directions[i], &axes.directions[j])).abs()
+                    < 1e-12
+            ));
+        assert_eq!(axes.warnings, vec![AxesWarning::CompletedWithVertical(2)]);
+        // Already three: nothing changes.
+        let before = axes.clone();
+        assert_eq!(axes.complete_with_vertical(&z, &normals, 5.0), 0);
+        assert_eq!(axes, before);
     }
 }

@@ -196,102 +196,22 @@ impl SweepBaselineConfig {
 /// matched no tread and the fronto-parallel family won there with wrong depths.
 ///
 /// The points can miss a direction the images still show: on `thin` the lawn, seen at
-/// grazing angles, holds one sparse point, so the axes are the back wall's normal alone and
-/// no family could match the ground. Gallup et al. (2007) take the ground's sweep direction
-/// from the vertical of their sensors rather than from the scene; here it comes from the
-/// cameras ([`camera_vertical`]) and, when the points found fewer than three directions,
-/// completes them ([`complete_with_vertical`]).
+/// grazing angles, holds one sparse point, so the points give the back wall's normal alone.
+/// The pipeline then completes the axes with the cameras' vertical
+/// ([`crate::axes::camera_vertical`], `axes.camera_vertical`), and so do these directions;
+/// without any point stage (no usable points) the vertical alone is swept along.
 ///
 /// `cfg.extra_directions` non-Manhattan directions are asked of the points as well.
 pub fn scene_axes(scene: &Scene, cfg: &SweepBaselineConfig) -> Vec<Vector3<f64>> {
     let mut pipeline = crate::pipeline::Config::default();
     pipeline.axes.max_extra_directions = cfg.extra_directions;
-    let axes = crate::pipeline::sparse_stages(scene, &pipeline)
+    crate::pipeline::sparse_stages(scene, &pipeline)
         .map(|s| s.axes.directions)
-        .unwrap_or_default();
-    match camera_vertical(&scene.views) {
-        Some(up) => complete_with_vertical(axes, &up),
-        None => axes,
-    }
-}
-
-/// Largest mean squared sine of the angle between the cameras' image rows and the vertical
-/// for the cameras to count as upright (about 6° of roll, root mean square).
-const MAX_MEAN_ROLL_SIN2: f64 = 0.01;
-
-/// The world's vertical as the cameras' orientation tells it, when they were held upright
-/// (no roll: every image row horizontal, as photographs of buildings usually are): the
-/// direction most nearly perpendicular to every view's image x-axis, signed to agree with
-/// the images' "up". `None` for fewer than two views, when the rows are not close to one
-/// plane (cameras rolled, or no common vertical), or when they are all nearly parallel (a
-/// facade walk: any direction across them would do, and the images' "up" is tilted by the
-/// cameras' pitch).
-pub fn camera_vertical(views: &[View]) -> Option<Vector3<f64>> {
-    if views.len() < 2 {
-        return None;
-    }
-    let mut scatter = nalgebra::Matrix3::<f64>::zeros();
-    let mut mean_up = Vector3::zeros();
-    for v in views {
-        let rot = v.cam_from_world.rotation;
-        // Rows of R are the camera axes in world coordinates: x right, y down.
-        let right = rot.inverse_transform_vector(&Vector3::x());
-        let down = rot.inverse_transform_vector(&Vector3::y());
-        scatter += right * right.transpose();
-        mean_up -= down;
-    }
-    let n = views.len() as f64;
-    let eig = nalgebra::SymmetricEigen::new(scatter / n);
-    let mut order = [0usize, 1, 2];
-    order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
-    let (l0, l1) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]]);
-    if l0 > MAX_MEAN_ROLL_SIN2 || l1 < 4.0 * MAX_MEAN_ROLL_SIN2 {
-        return None;
-    }
-    let up: Vector3<f64> = eig.eigenvectors.column(order[0]).into_owned();
-    let along = up.dot(&mean_up) / n;
-    if along.abs() < 0.1 {
-        // The images' "up" does not pick a side (cameras looking straight up or down).
-        return None;
-    }
-    Some(if along < 0.0 { -up } else { up })
-}
-
-/// Directions closer than this (degrees, sign ignored) count as the same sweep direction.
-const SAME_DIRECTION_DEG: f64 = 10.0;
-
-/// `axes` with fewer than three directions completed: with the vertical `up` unless one is
-/// within [`SAME_DIRECTION_DEG`] of it, then, while still fewer than three, with the
-/// horizontal direction across `up` and each horizontal axis. Three or more directions are
-/// returned as they are: the points' own estimate is the finer one. Directions are unit
-/// vectors, as [`scene_axes`] gets them from the pipeline.
-pub fn complete_with_vertical(mut axes: Vec<Vector3<f64>>, up: &Vector3<f64>) -> Vec<Vector3<f64>> {
-    use crate::axes::axial_angle_deg;
-    let known = |axes: &[Vector3<f64>], d: &Vector3<f64>| {
-        axes.iter()
-            .any(|a| axial_angle_deg(a, d) <= SAME_DIRECTION_DEG)
-    };
-    if axes.len() >= 3 {
-        return axes;
-    }
-    if !known(&axes, up) {
-        axes.push(*up);
-    }
-    let horizontal: Vec<Vector3<f64>> = axes
-        .iter()
-        .copied()
-        .filter(|a| axial_angle_deg(a, up) >= 90.0 - SAME_DIRECTION_DEG)
-        .collect();
-    for h in horizontal {
-        if axes.len() >= 3 {
-            break;
-        }
-        let across = up.cross(&h).normalize();
-        if !known(&axes, &across) {
-            axes.push(across);
-        }
-    }
-    axes
+        .unwrap_or_else(|_| {
+            crate::axes::camera_vertical(&scene.views)
+                .into_iter()
+                .collect()
+        })
 }
 
 /// Plane sweep for view `index` of an undistorted scene; `images` holds every view's image.
@@ -636,100 +556,15 @@ mod tests {
             .unwrap()
     }
 
-    /// A pinhole view at `eye` looking at `target` with image "up" towards `up`.
-    fn upright_view(eye: Vector3<f64>, target: Vector3<f64>, up: Vector3<f64>) -> View {
-        View {
-            id: 1,
-            name: "v".into(),
-            camera: crate::geometry::Camera::pinhole(100, 80, 100.0, 100.0, 50.0, 40.0),
-            cam_from_world: crate::geometry::look_at(&eye, &target, &up),
-            image_path: None,
-        }
-    }
-
-    #[test]
-    fn the_vertical_is_read_off_upright_cameras() {
-        // A world whose "up" is tilted off every axis; cameras around a point, pitched up
-        // and down by up to 27°, never rolled.
-        let up = Vector3::new(0.3, -0.2, 0.93).normalize();
-        let (a, b) = (
-            up.cross(&Vector3::x()).normalize(),
-            up.cross(&up.cross(&Vector3::x())).normalize(),
-        );
-        let eye = |i: usize| {
-            let yaw = i as f64 * 0.7;
-            (a * yaw.cos() + b * yaw.sin()) * 10.0 + up * (i as f64 - 3.0)
-        };
-        let views: Vec<View> = (0..7).map(|i| upright_view(eye(i), up * 2.0, up)).collect();
-        let found = camera_vertical(&views).expect("upright cameras give a vertical");
-        assert!(
-            found.dot(&up) > (0.1f64).to_radians().cos(),
-            "{found:?} vs {up:?}"
-        );
-        // Upside-down images give the opposite sign.
-        let flipped: Vec<View> = (0..7)
-            .map(|i| upright_view(eye(i), up * 2.0, -up))
-            .collect();
-        assert!(camera_vertical(&flipped).unwrap().dot(&up) < -0.999);
-        // Rolled cameras (each about its viewing axis by 20°): no common vertical.
-        let rolled: Vec<View> = views
-            .iter()
-            .map(|v| {
-                let roll = nalgebra::UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 0.35);
-                View {
-                    cam_from_world: nalgebra::Isometry3::from_parts(
-                        nalgebra::Translation3::identity(),
-                        roll,
-                    ) * v.cam_from_world,
-                    ..v.clone()
-                }
-            })
-            .collect();
-        assert_eq!(camera_vertical(&rolled), None);
-        // All looking the same way (a facade walk): the rows are parallel, no answer.
-        let walk: Vec<View> = (0..5)
-            .map(|i| {
-                let eye = a * i as f64;
-                upright_view(eye, eye + b * 10.0 - up * 3.0, up)
-            })
-            .collect();
-        assert_eq!(camera_vertical(&walk), None);
-        assert_eq!(camera_vertical(&views[..1]), None);
-    }
-
-    #[test]
-    fn fewer_than_three_axes_are_completed_with_the_vertical() {
-        let (x, y, z) = (Vector3::x(), Vector3::y(), Vector3::z());
-        let parallel = |a: &Vector3<f64>, b: &Vector3<f64>| a.dot(b).abs() > 0.9999;
-        // One wall direction: the vertical and the horizontal across both join it.
-        let done = complete_with_vertical(vec![y], &z);
-        assert_eq!(done.len(), 3);
-        assert!(parallel(&done[0], &y) && parallel(&done[1], &z) && parallel(&done[2], &x));
-        // A near-vertical axis (5° off) stands for the vertical; its horizontal partner is
-        // crossed with the cameras' vertical.
-        let tilted = (z + x * 5f64.to_radians().tan()).normalize();
-        let done = complete_with_vertical(vec![tilted, y], &z);
-        assert_eq!(done.len(), 3);
-        assert_eq!(done[0], tilted);
-        assert!(parallel(&done[2], &x));
-        // Three directions (a non-Manhattan scene's included) are kept as they are.
-        let roof = (y + z).normalize();
-        assert_eq!(
-            complete_with_vertical(vec![x, y, roof], &z),
-            vec![x, y, roof]
-        );
-        // A lone slanted direction gains the vertical only: nothing horizontal to cross.
-        assert_eq!(complete_with_vertical(vec![roof], &z), vec![roof, z]);
-        assert_eq!(complete_with_vertical(Vec::new(), &z), vec![z]);
-    }
-
     #[test]
     fn thin_sweeps_its_lawn_with_the_cameras_vertical() {
         // On thin the lawn, seen at grazing angles, holds one sparse point: the points give
         // the back wall's normal alone, and without the cameras' vertical no family is
         // horizontal (the sweep got 27 % of thin's textured surfaces within 1 %, 82 % with it).
         let scene = scene_through_colmap("thin");
-        let from_points = crate::pipeline::sparse_stages(&scene, &Default::default())
+        let mut points_only = crate::pipeline::Config::default();
+        points_only.axes.camera_vertical = false;
+        let from_points = crate::pipeline::sparse_stages(&scene, &points_only)
             .unwrap()
             .axes
             .directions;

@@ -338,6 +338,11 @@ pub fn sparse_stages(scene: &Scene, cfg: &Config) -> Result<SparseStages, Pipeli
     let t_normals = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut axes = dominant_axes(&oriented, &cfg.axes)?;
+    if cfg.axes.camera_vertical {
+        if let Some(up) = crate::axes::camera_vertical(&scene.views) {
+            axes.complete_with_vertical(&up, &oriented.normals, cfg.axes.refine_angle_deg);
+        }
+    }
     let t_axes = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut hypotheses =
@@ -737,6 +742,8 @@ pub struct RunSummary {
     pub direction_support: Vec<usize>,
     /// Whether d3 was completed as d1 × d2 (`axes.complete_frame`).
     pub third_axis_completed: bool,
+    /// How many directions were added from the cameras' vertical (`axes.camera_vertical`).
+    pub directions_from_cameras: usize,
     /// Plane hypotheses.
     pub hypotheses: usize,
     /// Of those, crease hypotheses found after the first labelling (the last ones).
@@ -916,6 +923,15 @@ pub fn run(
             .warnings
             .iter()
             .any(|w| matches!(w, crate::axes::AxesWarning::CompletedThird(_))),
+        directions_from_cameras: prepared
+            .axes
+            .warnings
+            .iter()
+            .map(|w| match w {
+                crate::axes::AxesWarning::CompletedWithVertical(n) => *n,
+                _ => 0,
+            })
+            .sum(),
         hypotheses: prepared.hypotheses.len(),
         crease_hypotheses: prepared.crease_views.len(),
         views: views
