@@ -419,6 +419,22 @@ pub struct SweepHypothesesConfig {
     pub step_r: f64,
     /// At most this many offsets per axis and view; the step grows for larger ranges.
     pub max_planes_per_axis: usize,
+    /// Sweep each offset bin at several evenly spaced sub-planes (scored by the cheapest)
+    /// until consecutive sub-planes move a pixel at most this far in the neighbours (pixels
+    /// of the reduced images; the `step_quantile` over a view's pixels and plane pairs,
+    /// median over the views; [`crate::baseline::family_step_px`]). A plane seen at a
+    /// grazing angle (a lawn from eye height) moves pixels several pixels per step of 2 R,
+    /// further than the 5×5 NCC basin is wide, so none of the bin's offsets matched and
+    /// nothing voted for it. Bins, margins and peaks stay those of the `step_r` grid; a
+    /// hypothesis' offset is the mean of its voters' best sub-planes. 0 = one plane per bin.
+    pub max_step_px: f64,
+    /// Quantile of the pixel steps over a view that `max_step_px` bounds (Gallup et al.
+    /// 2007 bound the largest; the 90th percentile ignores planes grazing the camera).
+    pub step_quantile: f64,
+    /// Sub-planes are never closer than this (units of R) ...
+    pub min_step_r: f64,
+    /// ... and an axis never has more than this many (the sweep's time grows with them).
+    pub max_fine_planes: usize,
     /// Neighbour views matched against each view ([`crate::photo::select_neighbours`]).
     pub neighbours: usize,
     /// Sweep on images reduced by this integer factor (box filter); 1 = full resolution.
@@ -461,6 +477,10 @@ impl Default for SweepHypothesesConfig {
             enabled: true,
             step_r: 2.0,
             max_planes_per_axis: 160,
+            max_step_px: 2.0,
+            step_quantile: 0.9,
+            min_step_r: 0.5,
+            max_fine_planes: 1024,
             neighbours: 3,
             downsample: 2,
             max_width: 160,
@@ -488,6 +508,19 @@ impl SweepHypothesesConfig {
         }
         if self.max_planes_per_axis < 2 || self.neighbours == 0 || self.min_views == 0 {
             return bad("max_planes_per_axis ≥ 2, neighbours ≥ 1, min_views ≥ 1 expected".into());
+        }
+        let fine_ok = self.max_step_px >= 0.0
+            && self.max_step_px.is_finite()
+            && (0.0..=1.0).contains(&self.step_quantile)
+            && self.min_step_r > 0.0
+            && self.min_step_r.is_finite()
+            && self.max_fine_planes >= 1;
+        if !fine_ok {
+            return bad(format!(
+                "max_step_px = {} must be ≥ 0, step_quantile = {} in [0, 1], min_step_r = {} \
+                 > 0, max_fine_planes = {} ≥ 1",
+                self.max_step_px, self.step_quantile, self.min_step_r, self.max_fine_planes
+            ));
         }
         if !(1..=8).contains(&self.downsample) {
             return bad(format!("downsample = {} must be in 1..=8", self.downsample));
@@ -629,8 +662,10 @@ fn frustum_offset_range(scene: &Scene, view_index: usize, d: &Vector3<f64>) -> O
 /// What [`sweep_hypotheses`] found, per axis, for reports and tests.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SweepVotes {
-    /// Offset step per Manhattan axis (world units).
+    /// Offset step per Manhattan axis (world units): the width of a vote bin.
     pub step: Vec<f64>,
+    /// Sub-planes swept per bin and axis (`max_step_px`).
+    pub sub_planes: Vec<usize>,
     /// Per axis: (offset of the bin, total votes, views voting) for every bin with votes.
     pub bins: Vec<Vec<(f64, u32, u32)>>,
 }
@@ -683,16 +718,6 @@ pub fn sweep_hypotheses(
     let steps: Vec<f64> = (0..nax)
         .map(|k| (sc.step_r * input.scale).max(widest[k] / sc.max_planes_per_axis as f64))
         .collect();
-    let nbins: Vec<usize> = (0..nax)
-        .map(|k| {
-            if ranges[k].1 > ranges[k].0 {
-                ((ranges[k].1 - ranges[k].0) / steps[k]).ceil() as usize + 1
-            } else {
-                0
-            }
-        })
-        .collect();
-    let offset_of = |k: usize, i: usize| ranges[k].0 + i as f64 * steps[k];
     let small: Vec<(View, ImageF32)> = scene
         .views
         .iter()
@@ -704,16 +729,70 @@ pub fn sweep_hypotheses(
             (sv, downsample_image(img, f))
         })
         .collect();
+    let neighbours_of: Vec<Vec<usize>> = (0..scene.views.len())
+        .map(|v| select_neighbours(scene, v, sc.neighbours))
+        .collect::<Result<_, _>>()
+        .map_err(|e| HypothesesError::Input(e.to_string()))?;
+    // Sub-planes per offset bin: where a bin's step moves pixels further than the 5×5 NCC
+    // basin is wide, each bin is swept at `sub` evenly spaced offsets and scored by the
+    // cheapest of them; bins, margins and peaks stay those of the bin grid.
+    let mut subdivision = vec![1usize; nax];
+    if sc.max_step_px > 0.0 {
+        for k in 0..nax {
+            let mut px: Vec<f64> = (0..scene.views.len())
+                .filter_map(|v| {
+                    let (lo, hi) = frustum_offset_range(scene, v, &dirs[k])?;
+                    let n =
+                        (((hi - lo) / steps[k]).ceil() as usize + 1).min(sc.max_planes_per_axis);
+                    let planes: Vec<Plane> = (0..n)
+                        .map(|i| Plane {
+                            normal: dirs[k],
+                            offset: lo + i as f64 * steps[k],
+                        })
+                        .collect();
+                    let nbrs: Vec<&View> = neighbours_of[v].iter().map(|&j| &small[j].0).collect();
+                    crate::baseline::family_step_px(&small[v].0, &nbrs, &planes, sc.step_quantile)
+                })
+                .collect();
+            px.sort_by(f64::total_cmp);
+            let Some(&median) = px.get(px.len() / 2) else {
+                continue;
+            };
+            let bins = (((ranges[k].1 - ranges[k].0) / steps[k]).ceil() as usize + 1).max(1);
+            let cap = (sc.max_fine_planes / bins)
+                .min((steps[k] / (sc.min_step_r * input.scale)).floor() as usize)
+                .max(1);
+            subdivision[k] = ((median / sc.max_step_px).ceil() as usize).clamp(1, cap);
+            tracing::debug!(
+                axis = k,
+                step = steps[k],
+                px = median,
+                sub = subdivision[k],
+                "sweep hypotheses: sub-planes per bin"
+            );
+        }
+    }
+    let nbins: Vec<usize> = (0..nax)
+        .map(|k| {
+            if ranges[k].1 > ranges[k].0 {
+                ((ranges[k].1 - ranges[k].0) / steps[k]).ceil() as usize + 1
+            } else {
+                0
+            }
+        })
+        .collect();
+    let offset_of = |k: usize, i: usize| ranges[k].0 + i as f64 * steps[k];
     let px_per_view = small.first().map_or(1, |(v, _)| {
         v.camera.width as usize * v.camera.height as usize
     });
     let min_votes = ((sc.min_vote_fraction * px_per_view as f64).ceil() as u32).max(1);
     let min_view_votes = (min_votes / 10).max(1);
     let mut total: Vec<Vec<u32>> = nbins.iter().map(|&n| vec![0; n]).collect();
+    // Per bin: the sum of its voters' offsets (their best sub-plane's).
+    let mut offset_sum: Vec<Vec<f64>> = nbins.iter().map(|&n| vec![0.0; n]).collect();
     let mut views_voting: Vec<Vec<u32>> = nbins.iter().map(|&n| vec![0; n]).collect();
     for v in 0..scene.views.len() {
-        let nb = select_neighbours(scene, v, sc.neighbours)
-            .map_err(|e| HypothesesError::Input(e.to_string()))?;
+        let nb = &neighbours_of[v];
         if nb.is_empty() {
             continue;
         }
@@ -722,7 +801,9 @@ pub fn sweep_hypotheses(
             nb.iter().map(|&j| (&small[j].0, &small[j].1)).collect();
         let npx = ref_view.camera.width as usize * ref_view.camera.height as usize;
         // Per axis: best cost, its bin, and the best cost more than two bins away.
-        let mut best = vec![(1.0f32, u32::MAX, 1.0f32); npx * nax];
+        // Per axis: best cost, its bin, the best cost more than two bins away, and the
+        // offset of the best (sub-)plane.
+        let mut best = vec![(1.0f32, u32::MAX, 1.0f32, 0.0f64); npx * nax];
         for (k, d) in dirs.iter().enumerate() {
             let Some((lo, hi)) = frustum_offset_range(scene, v, d) else {
                 continue;
@@ -732,30 +813,42 @@ pub fn sweep_hypotheses(
             if i1 <= i0 {
                 continue;
             }
-            let planes: Vec<Plane> = (i0..=i1)
-                .map(|i| Plane {
+            let sub = subdivision[k];
+            // Sub-plane s of bin i sits at the bin's offset + (s + ½)/sub − ½ steps (the
+            // bin's own offset when sub = 1).
+            let sub_offset = |j: usize| {
+                offset_of(k, i0 + j / sub)
+                    + ((j % sub) as f64 + 0.5 - 0.5 * sub as f64) / sub as f64 * steps[k]
+            };
+            let planes: Vec<Plane> = (0..(i1 - i0 + 1) * sub)
+                .map(|j| Plane {
                     normal: *d,
-                    offset: offset_of(k, i),
+                    offset: sub_offset(j),
                 })
                 .collect();
             let vol = plane_cost_volume(ref_view, ref_img, &neighbours, &planes, &sc.photo)
                 .map_err(|e| HypothesesError::Input(e.to_string()))?;
             let np = planes.len();
+            let mut bin_cost = vec![0.0f32; i1 - i0 + 1];
             for p in 0..npx {
                 let c = &vol.costs[p * np..(p + 1) * np];
-                let (bi, bc) = c
+                let (bj, bc) = c
                     .iter()
                     .enumerate()
                     .fold(
                         (0usize, f32::INFINITY),
                         |a, (i, &x)| if x < a.1 { (i, x) } else { a },
                     );
-                let second = c
+                for (b, chunk) in bin_cost.iter_mut().zip(c.chunks_exact(sub)) {
+                    *b = chunk.iter().fold(f32::INFINITY, |a, &x| a.min(x));
+                }
+                let bi = bj / sub;
+                let second = bin_cost
                     .iter()
                     .enumerate()
                     .filter(|(i, _)| i.abs_diff(bi) > 2)
                     .fold(1.0f32, |a, (_, &x)| a.min(x));
-                best[p * nax + k] = (bc, (i0 + bi) as u32, second);
+                best[p * nax + k] = (bc, (i0 + bi) as u32, second, sub_offset(bj));
             }
         }
         let texture = texture_mask(ref_img, sc.photo.window_radius, sc.texture_threshold);
@@ -765,7 +858,7 @@ pub fn sweep_hypotheses(
                 continue;
             }
             let row = &best[p * nax..(p + 1) * nax];
-            let Some((k, &(bc, bi, second))) = row
+            let Some((k, &(bc, bi, second, offset))) = row
                 .iter()
                 .enumerate()
                 .filter(|(_, b)| b.1 != u32::MAX)
@@ -780,6 +873,7 @@ pub fn sweep_hypotheses(
                 .fold(second, |a, (_, b)| a.min(b.0));
             if bc <= sc.max_cost && other - bc >= sc.min_margin {
                 votes[k][bi as usize] += 1;
+                offset_sum[k][bi as usize] += offset;
             }
         }
         for k in 0..nax {
@@ -813,14 +907,14 @@ pub fn sweep_hypotheses(
             let (mut sw, mut so) = (0.0f64, 0.0f64);
             for j in i.saturating_sub(1)..(i + 2).min(n) {
                 sw += total[k][j] as f64;
-                so += total[k][j] as f64 * offset_of(k, j);
+                so += offset_sum[k][j];
             }
             let d = dirs[k];
             let offset = snap_to_points(
                 input.positions,
                 &d,
                 so / sw,
-                1.5 * steps[k],
+                1.5 * steps[k] / subdivision[k] as f64,
                 sc.snap_window_r * input.scale,
                 sc.snap_density,
             );
@@ -860,7 +954,14 @@ pub fn sweep_hypotheses(
                 .collect()
         })
         .collect();
-    Ok((out, SweepVotes { step: steps, bins }))
+    Ok((
+        out,
+        SweepVotes {
+            step: steps,
+            sub_planes: subdivision,
+            bins,
+        },
+    ))
 }
 
 #[cfg(test)]
@@ -1189,6 +1290,124 @@ mod tests {
         }
         // Bad input: image count.
         assert!(sweep_hypotheses(&scene, &images[..2], &input, &existing, &cfg).is_err());
+    }
+
+    /// A textured lawn z = 0 seen from eye height at grazing angles and a back wall y = 8
+    /// that holds every sparse point (thin's garden in miniature). A step of a few R moves
+    /// lawn pixels by several pixels in the neighbours, wider than the 5×5 NCC basin: no
+    /// offset matched, nothing voted for the lawn. With the step refined to the pixels
+    /// (`max_step_px`), the sweep proposes z = 0.
+    #[test]
+    fn sweep_refines_its_step_until_a_grazing_lawn_votes() {
+        use crate::geometry::{look_at, Camera};
+        let value = |a: f64, b: f64, salt: i64| -> f32 {
+            let (i, j) = ((a / 0.2).floor() as i64, (b / 0.2).floor() as i64);
+            let h =
+                (i.wrapping_mul(73_856_093) ^ j.wrapping_mul(19_349_663) ^ salt).rem_euclid(1000);
+            0.2 + 0.6 * h as f32 / 1000.0
+        };
+        let shade = |o: &Vector3<f64>, d: &Vector3<f64>| -> f32 {
+            let t_wall = if d.y > 1e-9 {
+                (8.0 - o.y) / d.y
+            } else {
+                f64::INFINITY
+            };
+            let t_lawn = if d.z < -1e-9 {
+                -o.z / d.z
+            } else {
+                f64::INFINITY
+            };
+            if t_lawn < t_wall {
+                let p = o + d * t_lawn;
+                value(p.x, p.y, 11)
+            } else if t_wall.is_finite() {
+                let p = o + d * t_wall;
+                value(p.x, p.z, 29)
+            } else {
+                0.9
+            }
+        };
+        let cam = Camera::pinhole(120, 90, 100.0, 100.0, 60.0, 45.0);
+        let views: Vec<View> = [-1.2, -0.4, 0.4, 1.2]
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| View {
+                id: i as u32 + 1,
+                name: format!("v{i}.png"),
+                camera: cam.clone(),
+                cam_from_world: look_at(
+                    &Vector3::new(x, 0.0, 1.5),
+                    &Vector3::new(0.3 * x, 8.0, 0.4),
+                    &Vector3::z(),
+                ),
+                image_path: None,
+            })
+            .collect();
+        let images: Vec<ImageF32> = views
+            .iter()
+            .map(|v| {
+                let mut img = ImageF32::filled(120, 90, 1, 0.0);
+                for y in 0..90 {
+                    for x in 0..120 {
+                        let (o, d) = v.ray(&nalgebra::Vector2::new(x as f64 + 0.5, y as f64 + 0.5));
+                        img.pixel_mut(x, y)[0] = shade(&o, &d);
+                    }
+                }
+                img
+            })
+            .collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let positions: Vec<Vector3<f64>> = (0..150)
+            .map(|_| Vector3::new(rng.random_range(-3.0..3.0), 8.0, rng.random_range(0.1..3.0)))
+            .collect();
+        let n = positions.len();
+        let (normals, confidence) = (vec![Vector3::y(); n], vec![1.0; n]);
+        let scene = Scene {
+            views,
+            cloud: crate::scene::SparseCloud {
+                tracks: vec![vec![0, 1, 2, 3]; n],
+                colors: vec![[128; 3]; n],
+                errors: vec![0.5; n],
+                confidence: confidence.clone(),
+                normals: None,
+                positions: positions.clone(),
+            },
+        };
+        let axes = manual_axes(vec![Vector3::y(), Vector3::z(), Vector3::x()]);
+        let input = HypothesesInput {
+            positions: &positions,
+            normals: &normals,
+            confidence: &confidence,
+            axes: &axes,
+            scale: 0.02,
+        };
+        let coarse = HypothesesConfig {
+            sweep: SweepHypothesesConfig {
+                downsample: 1,
+                max_planes_per_axis: 40,
+                max_fine_planes: 400,
+                max_step_px: 0.0,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let existing = plane_hypotheses(&input, &coarse).unwrap();
+        assert!(existing.iter().all(|h| h.axis == Some(0)), "{existing:?}");
+        let lawn = |extra: &[PlaneHypothesis]| {
+            extra
+                .iter()
+                .filter(|h| h.axis == Some(1) && h.plane.offset.abs() < 0.02)
+                .count()
+        };
+        let (extra, votes) = sweep_hypotheses(&scene, &images, &input, &existing, &coarse).unwrap();
+        assert_eq!(lawn(&extra), 0, "step {:?}: {extra:?}", votes.step);
+        let mut fine = coarse.clone();
+        fine.sweep.max_step_px = SweepHypothesesConfig::default().max_step_px;
+        let (extra, fine_votes) =
+            sweep_hypotheses(&scene, &images, &input, &existing, &fine).unwrap();
+        assert_eq!(lawn(&extra), 1, "step {:?}: {extra:?}", fine_votes.step);
+        assert_eq!(votes.sub_planes, vec![1; 3]);
+        assert!(fine_votes.sub_planes[1] >= 2, "{fine_votes:?}");
     }
 
     fn manual_axes(dirs: Vec<Vector3<f64>>) -> DominantAxes {
