@@ -427,7 +427,7 @@ fn demo(a: DemoArgs, progress: &Progress) -> Result<()> {
 
 fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
     use planemap::baseline::{
-        scene_axes, split_scores, sweep_view_with_axes, texture_mask, SplitScores,
+        covisible_mask, scene_axes, split_scores, sweep_view_with_axes, texture_mask, SplitScores,
     };
     let model = planemap::io::colmap::read_model(&a.model)?;
     let images = a.images.clone().or_else(|| {
@@ -460,10 +460,27 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
             scene.views.len()
         );
     }
+    // Every view's ground-truth depth, for the covisible-surface figure (stereo cannot
+    // measure what only one view sees).
+    let gt_depths: Option<Vec<Vec<f32>>> = match &gt {
+        Some(gt) if gt.join("texture").is_dir() => Some(
+            scene
+                .views
+                .iter()
+                .map(|v| {
+                    let stem = planemap::pipeline::output_stem(&v.name);
+                    planemap::io::pfm::read_pfm_path(&gt.join("depth").join(format!("{stem}.pfm")))
+                        .map(|d| d.data)
+                })
+                .collect::<Result<_, _>>()?,
+        ),
+        _ => None,
+    };
     std::fs::create_dir_all(a.output.join("depth"))?;
     let bar = progress.bar(indices.len() as u64, "plane sweep");
     let mut total = SplitScores::default();
     let mut surface_total: Option<SplitScores> = None;
+    let mut covisible_total: Option<SplitScores> = None;
     for &i in &indices {
         let view = &scene.views[i];
         let result = sweep_view_with_axes(&scene, &all, i, &axes, &cfg)?;
@@ -491,6 +508,20 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
                 surface_total
                     .get_or_insert_with(SplitScores::default)
                     .add(&split_scores(&result.depth, &gt_depth.data, &mask, 0.01));
+                if let Some(depths) = &gt_depths {
+                    let all_gt: Vec<&[f32]> = depths.iter().map(|d| d.as_slice()).collect();
+                    let seen = covisible_mask(&scene.views, &all_gt, i, 0.01);
+                    // Pixels only this view sees count as background here.
+                    let gt_seen: Vec<f32> = gt_depth
+                        .data
+                        .iter()
+                        .zip(&seen)
+                        .map(|(&g, &s)| if s { g } else { 0.0 })
+                        .collect();
+                    covisible_total
+                        .get_or_insert_with(SplitScores::default)
+                        .add(&split_scores(&result.depth, &gt_seen, &mask, 0.01));
+                }
             }
         }
         bar.inc(1);
@@ -519,6 +550,13 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
     }
     if let Some(s) = &surface_total {
         report("surfaces", s, "the renderer's ground truth (gt/texture)");
+    }
+    if let Some(s) = &covisible_total {
+        report(
+            "surfaces",
+            s,
+            "the same, where another view sees the surface unhidden (covisible)",
+        );
     }
     Ok(())
 }

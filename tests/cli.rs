@@ -86,18 +86,35 @@ fn sweep_baseline_writes_depths_and_scores_them() {
     assert!(!out_dir.join("depth/view_0001.pfm").exists());
     // Both texture splits are reported; on the textured surfaces of the ground truth the
     // 96×72 sweep is within 1 % on about 70 % of the pixels.
-    let surfaces = stdout
-        .lines()
-        .find(|l| l.contains("textured surfaces"))
-        .unwrap_or_else(|| panic!("no ground-truth split in {stdout}"));
     assert!(stdout.contains("textured pixels"), "{stdout}");
-    let share: f64 = surfaces
-        .split("textured surfaces ")
-        .nth(1)
-        .and_then(|r| r.split('%').next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("unparsable: {surfaces}"));
-    assert!(share >= 60.0, "{surfaces}");
+    // "textured surfaces X% (of N)", on every textured surface and on the covisible ones.
+    let split = |line: &str| -> (f64, u64) {
+        let rest = line.split("textured surfaces ").nth(1).unwrap_or("");
+        let share = rest.split('%').next().and_then(|v| v.parse().ok());
+        let count = rest
+            .split("(of ")
+            .nth(1)
+            .and_then(|r| r.split(')').next())
+            .and_then(|v| v.parse().ok());
+        share
+            .zip(count)
+            .unwrap_or_else(|| panic!("unparsable: {line}"))
+    };
+    let lines: Vec<&str> = stdout
+        .lines()
+        .filter(|l| l.contains("textured surfaces"))
+        .collect();
+    assert_eq!(lines.len(), 2, "{stdout}");
+    assert!(lines[1].contains("covisible"), "{stdout}");
+    let (all, n_all) = split(lines[0]);
+    let (seen, n_seen) = split(lines[1]);
+    assert!(all >= 60.0, "{stdout}");
+    // Covisible pixels are a strict subset, and stereo does better on them.
+    assert!(
+        n_seen < n_all && n_seen as f64 > 0.5 * n_all as f64,
+        "{stdout}"
+    );
+    assert!(seen >= all, "{stdout}");
 
     let bad = planemap()
         .args(["-q", "sweep", "--views", "0,42", "-o"])
