@@ -1240,17 +1240,7 @@ mod tests {
         }
         normals[300..].fill(Vector3::x());
         let confidence = vec![1.0; n];
-        let scene = Scene {
-            views,
-            cloud: crate::scene::SparseCloud {
-                tracks: positions.iter().map(|_| vec![0, 1, 2]).collect(),
-                colors: vec![[128; 3]; n],
-                errors: vec![0.5; n],
-                confidence: confidence.clone(),
-                normals: None,
-                positions: positions.clone(),
-            },
-        };
+        let scene = seen_by_every_view(views, &positions);
         let axes = manual_axes(vec![Vector3::x(), Vector3::y(), Vector3::z()]);
         let input = HypothesesInput {
             positions: &positions,
@@ -1362,17 +1352,7 @@ mod tests {
             .collect();
         let n = positions.len();
         let (normals, confidence) = (vec![Vector3::y(); n], vec![1.0; n]);
-        let scene = Scene {
-            views,
-            cloud: crate::scene::SparseCloud {
-                tracks: vec![vec![0, 1, 2, 3]; n],
-                colors: vec![[128; 3]; n],
-                errors: vec![0.5; n],
-                confidence: confidence.clone(),
-                normals: None,
-                positions: positions.clone(),
-            },
-        };
+        let scene = seen_by_every_view(views, &positions);
         let axes = manual_axes(vec![Vector3::y(), Vector3::z(), Vector3::x()]);
         let input = HypothesesInput {
             positions: &positions,
@@ -1408,6 +1388,23 @@ mod tests {
         assert_eq!(lawn(&extra), 1, "step {:?}: {extra:?}", fine_votes.step);
         assert_eq!(votes.sub_planes, vec![1; 3]);
         assert!(fine_votes.sub_planes[1] >= 2, "{fine_votes:?}");
+    }
+
+    /// A scene of `views` whose sparse points are all seen by every view.
+    fn seen_by_every_view(views: Vec<View>, positions: &[Vector3<f64>]) -> Scene {
+        let n = positions.len();
+        let track: Vec<u32> = (0..views.len() as u32).collect();
+        Scene {
+            views,
+            cloud: crate::scene::SparseCloud {
+                tracks: vec![track; n],
+                colors: vec![[128; 3]; n],
+                errors: vec![0.5; n],
+                confidence: vec![1.0; n],
+                normals: None,
+                positions: positions.to_vec(),
+            },
+        }
     }
 
     fn manual_axes(dirs: Vec<Vector3<f64>>) -> DominantAxes {
