@@ -704,11 +704,19 @@ pub fn sweep_hypotheses(
         sc.downsample
     };
     // Global offset grid per axis: union of the views' frustum ranges, step ≥ step_r·R.
+    // Per view and axis: the view's frustum offset range (each scans the cloud once).
+    let view_ranges: Vec<Vec<Option<(f64, f64)>>> = (0..scene.views.len())
+        .map(|v| {
+            dirs.iter()
+                .map(|d| frustum_offset_range(scene, v, d))
+                .collect()
+        })
+        .collect();
     let mut ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); nax];
     let mut widest = vec![0.0f64; nax];
-    for v in 0..scene.views.len() {
-        for (k, d) in dirs.iter().enumerate() {
-            if let Some((lo, hi)) = frustum_offset_range(scene, v, d) {
+    for per_axis in &view_ranges {
+        for (k, r) in per_axis.iter().enumerate() {
+            if let Some((lo, hi)) = *r {
                 ranges[k].0 = ranges[k].0.min(lo);
                 ranges[k].1 = ranges[k].1.max(hi);
                 widest[k] = widest[k].max(hi - lo);
@@ -718,6 +726,16 @@ pub fn sweep_hypotheses(
     let steps: Vec<f64> = (0..nax)
         .map(|k| (sc.step_r * input.scale).max(widest[k] / sc.max_planes_per_axis as f64))
         .collect();
+    let nbins: Vec<usize> = (0..nax)
+        .map(|k| {
+            if ranges[k].1 > ranges[k].0 {
+                ((ranges[k].1 - ranges[k].0) / steps[k]).ceil() as usize + 1
+            } else {
+                0
+            }
+        })
+        .collect();
+    let offset_of = |k: usize, i: usize| ranges[k].0 + i as f64 * steps[k];
     let small: Vec<(View, ImageF32)> = scene
         .views
         .iter()
@@ -741,7 +759,7 @@ pub fn sweep_hypotheses(
         for k in 0..nax {
             let mut px: Vec<f64> = (0..scene.views.len())
                 .filter_map(|v| {
-                    let (lo, hi) = frustum_offset_range(scene, v, &dirs[k])?;
+                    let (lo, hi) = view_ranges[v][k]?;
                     let n =
                         (((hi - lo) / steps[k]).ceil() as usize + 1).min(sc.max_planes_per_axis);
                     let planes: Vec<Plane> = (0..n)
@@ -758,8 +776,7 @@ pub fn sweep_hypotheses(
             let Some(&median) = px.get(px.len() / 2) else {
                 continue;
             };
-            let bins = (((ranges[k].1 - ranges[k].0) / steps[k]).ceil() as usize + 1).max(1);
-            let cap = (sc.max_fine_planes / bins)
+            let cap = (sc.max_fine_planes / nbins[k].max(1))
                 .min((steps[k] / (sc.min_step_r * input.scale)).floor() as usize)
                 .max(1);
             subdivision[k] = ((median / sc.max_step_px).ceil() as usize).clamp(1, cap);
@@ -772,16 +789,6 @@ pub fn sweep_hypotheses(
             );
         }
     }
-    let nbins: Vec<usize> = (0..nax)
-        .map(|k| {
-            if ranges[k].1 > ranges[k].0 {
-                ((ranges[k].1 - ranges[k].0) / steps[k]).ceil() as usize + 1
-            } else {
-                0
-            }
-        })
-        .collect();
-    let offset_of = |k: usize, i: usize| ranges[k].0 + i as f64 * steps[k];
     let px_per_view = small.first().map_or(1, |(v, _)| {
         v.camera.width as usize * v.camera.height as usize
     });
@@ -800,12 +807,11 @@ pub fn sweep_hypotheses(
         let neighbours: Vec<(&View, &ImageF32)> =
             nb.iter().map(|&j| (&small[j].0, &small[j].1)).collect();
         let npx = ref_view.camera.width as usize * ref_view.camera.height as usize;
-        // Per axis: best cost, its bin, and the best cost more than two bins away.
         // Per axis: best cost, its bin, the best cost more than two bins away, and the
         // offset of the best (sub-)plane.
         let mut best = vec![(1.0f32, u32::MAX, 1.0f32, 0.0f64); npx * nax];
         for (k, d) in dirs.iter().enumerate() {
-            let Some((lo, hi)) = frustum_offset_range(scene, v, d) else {
+            let Some((lo, hi)) = view_ranges[v][k] else {
                 continue;
             };
             let i0 = ((lo - ranges[k].0) / steps[k]).floor().max(0.0) as usize;

@@ -460,22 +460,22 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
             scene.views.len()
         );
     }
-    // Every view's ground-truth depth, for the covisible-surface figure (stereo cannot
-    // measure what only one view sees).
-    let gt_depths: Option<Vec<Vec<f32>>> = match &gt {
-        Some(gt) if gt.join("texture").is_dir() => Some(
-            scene
-                .views
-                .iter()
-                .map(|v| {
-                    let stem = planemap::pipeline::output_stem(&v.name);
-                    planemap::io::pfm::read_pfm_path(&gt.join("depth").join(format!("{stem}.pfm")))
-                        .map(|d| d.data)
-                })
-                .collect::<Result<_, _>>()?,
-        ),
-        _ => None,
+    // Every view's ground-truth depth, read once: the swept views are scored against their
+    // own, and the covisible-surface figure needs the others' (stereo cannot measure what
+    // only one view sees).
+    let gt_depths: Vec<Vec<f32>> = match &gt {
+        Some(gt) => scene
+            .views
+            .iter()
+            .map(|v| {
+                let stem = planemap::pipeline::output_stem(&v.name);
+                planemap::io::pfm::read_pfm_path(&gt.join("depth").join(format!("{stem}.pfm")))
+                    .map(|d| d.data)
+            })
+            .collect::<Result<_, _>>()?,
+        None => Vec::new(),
     };
+    let all_gt: Vec<&[f32]> = gt_depths.iter().map(|d| d.as_slice()).collect();
     std::fs::create_dir_all(a.output.join("depth"))?;
     let bar = progress.bar(indices.len() as u64, "plane sweep");
     let mut total = SplitScores::default();
@@ -496,10 +496,9 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
             &depth,
         )?;
         if let Some(gt) = &gt {
-            let gt_depth =
-                planemap::io::pfm::read_pfm_path(&gt.join("depth").join(format!("{stem}.pfm")))?;
+            let gt_depth = all_gt[i];
             let mask = texture_mask(&all[i], 3, 0.02);
-            total.add(&split_scores(&result.depth, &gt_depth.data, &mask, 0.01));
+            total.add(&split_scores(&result.depth, gt_depth, &mask, 0.01));
             // The renderer's own textured-surface map, when the workspace has one.
             let surface = gt.join("texture").join(format!("{stem}.png"));
             if surface.is_file() {
@@ -507,21 +506,17 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
                 let mask: Vec<bool> = textured.iter().map(|&t| t > 0).collect();
                 surface_total
                     .get_or_insert_with(SplitScores::default)
-                    .add(&split_scores(&result.depth, &gt_depth.data, &mask, 0.01));
-                if let Some(depths) = &gt_depths {
-                    let all_gt: Vec<&[f32]> = depths.iter().map(|d| d.as_slice()).collect();
-                    let seen = covisible_mask(&scene.views, &all_gt, i, 0.01);
-                    // Pixels only this view sees count as background here.
-                    let gt_seen: Vec<f32> = gt_depth
-                        .data
-                        .iter()
-                        .zip(&seen)
-                        .map(|(&g, &s)| if s { g } else { 0.0 })
-                        .collect();
-                    covisible_total
-                        .get_or_insert_with(SplitScores::default)
-                        .add(&split_scores(&result.depth, &gt_seen, &mask, 0.01));
-                }
+                    .add(&split_scores(&result.depth, gt_depth, &mask, 0.01));
+                let seen = covisible_mask(&scene.views, &all_gt, i, 0.01);
+                // Pixels only this view sees count as background here.
+                let gt_seen: Vec<f32> = gt_depth
+                    .iter()
+                    .zip(&seen)
+                    .map(|(&g, &s)| if s { g } else { 0.0 })
+                    .collect();
+                covisible_total
+                    .get_or_insert_with(SplitScores::default)
+                    .add(&split_scores(&result.depth, &gt_seen, &mask, 0.01));
             }
         }
         bar.inc(1);
