@@ -103,7 +103,8 @@ pub struct AxesConfig {
     /// photo-consistency sweep along it can then find their planes.
     pub complete_frame: bool,
     /// With fewer than three Manhattan directions from the points, complete them with the
-    /// cameras' vertical ([`camera_vertical`]) and the horizontals across it
+    /// cameras' vertical ([`camera_vertical_given`]: read off the image rows, or off the
+    /// rows and a wall normal on a walk) and the horizontals across it
     /// ([`DominantAxes::complete_with_vertical`], run by the pipeline): a lawn seen at
     /// grazing angles has almost no sparse points, yet the photo-consistency sweep along
     /// the vertical finds its plane. Nothing happens when the cameras were not held upright.
@@ -741,6 +742,68 @@ pub fn camera_vertical(views: &[crate::scene::View]) -> Option<Vector3<f64>> {
     Some(if along < 0.0 { -up } else { up })
 }
 
+/// Largest angle (degrees) between the vertical a walk's cameras and a known axis give
+/// ([`camera_vertical_given`]) and the images' mean "up": the cameras' largest pitch.
+const MAX_WALK_PITCH_DEG: f64 = 30.0;
+
+/// [`camera_vertical`], and where it has no answer because the image rows are too nearly
+/// parallel to pin a vertical down (a walk forward along a corridor or along a facade, a
+/// slow pan), the vertical the rows and a known Manhattan direction give together. The
+/// rows' mean direction `r` is horizontal (upright cameras) and so is any wall normal `d`
+/// among `known`: the vertical is then `r × d`, kept only if every row is horizontal for it
+/// as [`camera_vertical`] requires (a roll common to every camera cannot be told from a
+/// tilted world: upright cameras are the assumption, as there). Which known direction is a wall normal is read off the images' mean
+/// "up" `u` (projected across `r`): `r × d` must lie within [`MAX_WALK_PITCH_DEG`] of `u`
+/// (the best such `d` is taken). `None` when a known direction already lies within that
+/// angle of `u` (the vertical is known: nothing to add, and the horizontal across it and a
+/// wall normal is then the walk's own direction, whose planes are the hardest to tell
+/// apart), or when no known direction qualifies.
+pub fn camera_vertical_given(
+    views: &[crate::scene::View],
+    known: &[Vector3<f64>],
+) -> Option<Vector3<f64>> {
+    if let Some(up) = camera_vertical(views) {
+        return Some(up);
+    }
+    if views.len() < 2 {
+        return None;
+    }
+    let mut scatter = nalgebra::Matrix3::<f64>::zeros();
+    let mut mean_up = Vector3::zeros();
+    let mut rows = Vec::with_capacity(views.len());
+    for v in views {
+        let rot = v.cam_from_world.rotation;
+        let right = rot.inverse_transform_vector(&Vector3::x());
+        scatter += right * right.transpose();
+        mean_up -= rot.inverse_transform_vector(&Vector3::y());
+        rows.push(right);
+    }
+    let eig = nalgebra::SymmetricEigen::new(scatter / views.len() as f64);
+    let top = (0..3)
+        .max_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]))
+        .expect("three eigenvalues");
+    let r: Vector3<f64> = eig.eigenvectors.column(top).into_owned();
+    let u = mean_up - r * r.dot(&mean_up);
+    let u = u.try_normalize(1e-9)?;
+    let cos_pitch = MAX_WALK_PITCH_DEG.to_radians().cos();
+    let unit: Vec<Vector3<f64>> = known
+        .iter()
+        .filter_map(|d| d.try_normalize(1e-12))
+        .collect();
+    if unit.iter().any(|d| d.dot(&u).abs() >= cos_pitch) {
+        return None;
+    }
+    unit.iter()
+        .filter_map(|d| {
+            let v = r.cross(d).try_normalize(1e-6)?;
+            let v = if v.dot(&u) < 0.0 { -v } else { v };
+            // Every image row must be horizontal for this vertical, as camera_vertical asks.
+            let roll = rows.iter().map(|x| x.dot(&v).powi(2)).sum::<f64>() / rows.len() as f64;
+            (v.dot(&u) >= cos_pitch && roll <= MAX_MEAN_ROLL_SIN2).then_some(v)
+        })
+        .max_by(|a, b| a.dot(&u).total_cmp(&b.dot(&u)))
+}
+
 /// Directions closer than this (degrees, sign ignored) count as the same sweep direction.
 const SAME_DIRECTION_DEG: f64 = 10.0;
 
@@ -1267,6 +1330,77 @@ pub(crate) mod tests {
             .collect();
         assert_eq!(camera_vertical(&walk), None);
         assert_eq!(camera_vertical(&views[..1]), None);
+    }
+
+    #[test]
+    fn a_walk_gets_its_vertical_from_the_rows_and_a_wall_normal() {
+        // A tilted world; a forward walk along `fwd` pitched down 12°, panning by at most
+        // 8° (tiny's cameras): too little spread in the rows for camera_vertical alone.
+        let up = Vector3::new(0.2, 0.1, 0.97).normalize();
+        let side = up.cross(&Vector3::x()).normalize();
+        let fwd = side.cross(&up).normalize();
+        let walk: Vec<View> = (0..5)
+            .map(|i| {
+                let yaw = (i as f64 - 2.0) * 0.07;
+                let look = fwd * yaw.cos() + side * yaw.sin();
+                let eye = fwd * (0.5 * i as f64) + up * 1.5;
+                upright_view(eye, eye + look * 10.0 - up * 2.1, up)
+            })
+            .collect();
+        assert_eq!(
+            camera_vertical(&walk),
+            None,
+            "the pan is too narrow on its own"
+        );
+        // Only the back wall's normal (the walk's direction) is known: the vertical follows.
+        let v = camera_vertical_given(&walk, &[-fwd]).expect("rows × wall normal");
+        assert!(v.dot(&up) > (0.01f64).to_radians().cos(), "{v:?} vs {up:?}");
+        // A side wall's normal, nearly along the rows, gives nothing; with both, the back
+        // wall's decides.
+        assert_eq!(camera_vertical_given(&walk, &[side]), None);
+        let both = camera_vertical_given(&walk, &[side, fwd]).unwrap();
+        assert!(both.dot(&up) > 0.9999);
+        // The floor's normal is known already: nothing to add (corridor: completing the
+        // walk's own direction from it made ghost planes).
+        assert_eq!(camera_vertical_given(&walk, &[up, side]), None);
+        // A 40° roof slope across the walk is not a wall: its vertical would pitch the
+        // cameras 40° and tilt their rows; no answer.
+        let slope = (fwd * 40f64.to_radians().sin() + up * 40f64.to_radians().cos()).normalize();
+        assert_eq!(camera_vertical_given(&walk, &[slope]), None);
+        // Cameras rolled by ±20° in turn: the rows are not horizontal for any such
+        // vertical. (One common roll cannot be told from a tilted world; upright cameras
+        // are the assumption.)
+        let rolled: Vec<View> = walk
+            .iter()
+            .enumerate()
+            .map(|(i, v)| View {
+                cam_from_world: nalgebra::Isometry3::from_parts(
+                    nalgebra::Translation3::identity(),
+                    nalgebra::UnitQuaternion::from_axis_angle(
+                        &Vector3::z_axis(),
+                        if i % 2 == 0 { 0.35 } else { -0.35 },
+                    ),
+                ) * v.cam_from_world,
+                ..v.clone()
+            })
+            .collect();
+        assert_eq!(camera_vertical_given(&rolled, &[-fwd]), None);
+        // Where camera_vertical answers, that answer stands.
+        let orbit: Vec<View> = (0..6)
+            .map(|i| {
+                let a = i as f64 * 1.0;
+                upright_view(
+                    (fwd * a.cos() + side * a.sin()) * 10.0,
+                    Vector3::zeros(),
+                    up,
+                )
+            })
+            .collect();
+        assert_eq!(
+            camera_vertical_given(&orbit, &[fwd]),
+            camera_vertical(&orbit)
+        );
+        assert!(camera_vertical(&orbit).is_some());
     }
 
     #[test]

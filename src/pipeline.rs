@@ -339,7 +339,8 @@ pub fn sparse_stages(scene: &Scene, cfg: &Config) -> Result<SparseStages, Pipeli
     let t = Instant::now();
     let mut axes = dominant_axes(&oriented, &cfg.axes)?;
     if cfg.axes.camera_vertical {
-        if let Some(up) = crate::axes::camera_vertical(&scene.views) {
+        let m = axes.num_manhattan.min(axes.directions.len());
+        if let Some(up) = crate::axes::camera_vertical_given(&scene.views, &axes.directions[..m]) {
             axes.complete_with_vertical(&up, &oriented.normals, cfg.axes.refine_angle_deg);
         }
     }
