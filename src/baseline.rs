@@ -202,12 +202,25 @@ impl SweepBaselineConfig {
 /// ([`crate::axes::camera_vertical`], `axes.camera_vertical`), and so do these directions;
 /// without any point stage (no usable points) the vertical alone is swept along.
 ///
-/// `cfg.extra_directions` non-Manhattan directions are asked of the points as well.
+/// `cfg.extra_directions` non-Manhattan directions are asked of the points as well; one is
+/// swept only if some plane hypothesis along it survived the pipeline's filter
+/// (`hypotheses.max_shared_fraction`).
 pub fn scene_axes(scene: &Scene, cfg: &SweepBaselineConfig) -> Vec<Vector3<f64>> {
     let mut pipeline = crate::pipeline::Config::default();
     pipeline.axes.max_extra_directions = cfg.extra_directions;
     crate::pipeline::sparse_stages(scene, &pipeline)
-        .map(|s| s.axes.directions)
+        .map(|s| {
+            // An extra direction none of whose plane hypotheses survived (the stairs' slope:
+            // its points are the nosings, on the treads' planes) is not swept either.
+            let m = s.axes.num_manhattan;
+            s.axes
+                .directions
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| k < m || s.hypotheses.iter().any(|h| h.axis == Some(k)))
+                .map(|(_, d)| *d)
+                .collect()
+        })
         .unwrap_or_else(|_| {
             crate::axes::camera_vertical(&scene.views)
                 .into_iter()
