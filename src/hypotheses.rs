@@ -1189,23 +1189,15 @@ mod tests {
         let scene = scene_from(views, pts);
         let r = sampling_scale(&scene).unwrap();
         let oc = estimate_normals(&scene, &NormalsConfig::default()).unwrap();
-        let plain = dominant_axes(
-            &oc,
-            &AxesConfig {
-                max_extra_directions: 0,
+        let with_extras = |max_extra_directions| {
+            let cfg = AxesConfig {
+                max_extra_directions,
                 ..Default::default()
-            },
-        )
-        .unwrap();
-        assert_eq!(plain.directions.len(), 3);
-        let axes = dominant_axes(
-            &oc,
-            &AxesConfig {
-                max_extra_directions: 4,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+            };
+            dominant_axes(&oc, &cfg).unwrap()
+        };
+        assert_eq!(with_extras(0).directions.len(), 3);
+        let axes = with_extras(4);
         assert_eq!(axes.directions.len(), 5, "{:?}", axes.directions);
         let input = HypothesesInput {
             positions: &scene.cloud.positions,
