@@ -718,18 +718,9 @@ pub fn camera_vertical(views: &[crate::scene::View]) -> Option<Vector3<f64>> {
     if views.len() < 2 {
         return None;
     }
-    let mut scatter = nalgebra::Matrix3::<f64>::zeros();
-    let mut mean_up = Vector3::zeros();
-    for v in views {
-        let rot = v.cam_from_world.rotation;
-        // Rows of R are the camera axes in world coordinates: x right, y down.
-        let right = rot.inverse_transform_vector(&Vector3::x());
-        let down = rot.inverse_transform_vector(&Vector3::y());
-        scatter += right * right.transpose();
-        mean_up -= down;
-    }
+    let (scatter, mean_up, _) = camera_rows(views);
     let n = views.len() as f64;
-    let eig = nalgebra::SymmetricEigen::new(scatter / n);
+    let eig = nalgebra::SymmetricEigen::new(scatter);
     let mut order = [0usize, 1, 2];
     order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
     let (l0, l1) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]]);
@@ -745,6 +736,26 @@ pub fn camera_vertical(views: &[crate::scene::View]) -> Option<Vector3<f64>> {
     Some(if along < 0.0 { -up } else { up })
 }
 
+/// The views' image rows (x axes) in world coordinates, their mean scatter `Σ r rᵀ / n`, and
+/// the sum of their images' "up" (−y axes): what [`camera_vertical`] and
+/// [`camera_vertical_given`] read the vertical from.
+fn camera_rows(
+    views: &[crate::scene::View],
+) -> (nalgebra::Matrix3<f64>, Vector3<f64>, Vec<Vector3<f64>>) {
+    let mut scatter = nalgebra::Matrix3::<f64>::zeros();
+    let mut up_sum = Vector3::zeros();
+    let mut rows = Vec::with_capacity(views.len());
+    for v in views {
+        let rot = v.cam_from_world.rotation;
+        // Rows of R are the camera axes in world coordinates: x right, y down.
+        let right = rot.inverse_transform_vector(&Vector3::x());
+        scatter += right * right.transpose();
+        up_sum -= rot.inverse_transform_vector(&Vector3::y());
+        rows.push(right);
+    }
+    (scatter / views.len().max(1) as f64, up_sum, rows)
+}
+
 /// Largest angle (degrees) between the vertical a walk's cameras and a known axis give
 /// ([`camera_vertical_given`]) and the images' mean "up": the cameras' largest pitch.
 const MAX_WALK_PITCH_DEG: f64 = 30.0;
@@ -755,9 +766,9 @@ const MAX_WALK_PITCH_DEG: f64 = 30.0;
 /// rows' mean direction `r` is horizontal (upright cameras) and so is any wall normal `d`
 /// among `known`: the vertical is then `r × d`, kept only if every row is horizontal for it
 /// as [`camera_vertical`] requires (a roll common to every camera cannot be told from a
-/// tilted world: upright cameras are the assumption, as there). Which known direction is a wall normal is read off the images' mean
-/// "up" `u` (projected across `r`): `r × d` must lie within [`MAX_WALK_PITCH_DEG`] of `u`
-/// (the best such `d` is taken). `None` when a known direction already lies within that
+/// tilted world: upright cameras are the assumption, as there). Which known direction is a
+/// wall normal is read off the images' mean "up" `u` (projected across `r`): `r × d` must
+/// lie within [`MAX_WALK_PITCH_DEG`] of `u` (the best such `d` is taken). `None` when a known direction already lies within that
 /// angle of `u` (the vertical is known: nothing to add, and the horizontal across it and a
 /// wall normal is then the walk's own direction, whose planes are the hardest to tell
 /// apart), or when no known direction qualifies.
@@ -771,17 +782,8 @@ pub fn camera_vertical_given(
     if views.len() < 2 {
         return None;
     }
-    let mut scatter = nalgebra::Matrix3::<f64>::zeros();
-    let mut mean_up = Vector3::zeros();
-    let mut rows = Vec::with_capacity(views.len());
-    for v in views {
-        let rot = v.cam_from_world.rotation;
-        let right = rot.inverse_transform_vector(&Vector3::x());
-        scatter += right * right.transpose();
-        mean_up -= rot.inverse_transform_vector(&Vector3::y());
-        rows.push(right);
-    }
-    let eig = nalgebra::SymmetricEigen::new(scatter / views.len() as f64);
+    let (scatter, mean_up, rows) = camera_rows(views);
+    let eig = nalgebra::SymmetricEigen::new(scatter);
     let top = (0..3)
         .max_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]))
         .expect("three eigenvalues");
