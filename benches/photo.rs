@@ -160,5 +160,31 @@ fn aggregation(c: &mut Criterion) {
     single_thread_configs(c, "aggregation_640x480_16planes_1nbr", &configs);
 }
 
-criterion_group!(benches, cost_volume, ncc_window, aggregation);
+/// Box-weighted NCC (O(1) per pixel) against adaptive support weights (O(r²)), 5×5 and 7×7.
+fn support_weights(c: &mut Criterion) {
+    let configs: Vec<(String, PhotoConfig)> = [2u32, 3]
+        .iter()
+        .flat_map(|&radius| {
+            let side = 2 * radius + 1;
+            [0.0f32, 0.15].into_iter().map(move |sigma| {
+                let cfg = PhotoConfig {
+                    window_radius: radius,
+                    support_sigma_color: sigma,
+                    ..Default::default()
+                };
+                let kind = if sigma > 0.0 { "weighted" } else { "box" };
+                (format!("{kind}/{side}x{side}"), cfg)
+            })
+        })
+        .collect();
+    single_thread_configs(c, "support_weights_640x480_16planes_1nbr", &configs);
+}
+
+criterion_group!(
+    benches,
+    cost_volume,
+    ncc_window,
+    aggregation,
+    support_weights
+);
 criterion_main!(benches);

@@ -137,7 +137,14 @@ pub fn ncc(a: &[f32], b: &[f32], channels: usize) -> Option<f32> {
 /// function and the box-sum path so both apply the same texture threshold.
 #[inline]
 pub(crate) fn ncc_from_moments(cov: f64, va: f64, vb: f64, samples: usize) -> Option<f32> {
-    let min = NCC_MIN_VARIANCE * samples as f64;
+    ncc_from_weighted_moments(cov, va, vb, samples as f64)
+}
+
+/// [`ncc_from_moments`] for weighted moments: `weight` is the samples' total weight (the
+/// weighted path's texture threshold is the same per unit of weight).
+#[inline]
+pub(crate) fn ncc_from_weighted_moments(cov: f64, va: f64, vb: f64, weight: f64) -> Option<f32> {
+    let min = NCC_MIN_VARIANCE * weight;
     if !(va > min && vb > min) {
         return None;
     }

@@ -10,7 +10,7 @@
 //! pixel-major: exactly the `cost(pixel, plane)` the planemap data term consumes.
 
 use super::aggregate::{window, Integral};
-use super::measures::{ncc_from_moments, raw_cost, Measure};
+use super::measures::{ncc_from_moments, ncc_from_weighted_moments, raw_cost, Measure};
 use super::{ColorMode, PhotoConfig, PhotoError, SweepConfig};
 use crate::geometry::{plane_homography, Plane};
 use crate::raster::ImageF32;
@@ -284,6 +284,8 @@ struct Prepared {
     reference: ImageF32,
     /// Neighbours, same channel count as the reference.
     neighbours: Vec<ImageF32>,
+    /// The reference image as given (colour if it has colour): the support weights' guide.
+    support_guide: ImageF32,
     /// Reference-frame homographies are computed per plane; these are the views.
     ref_view: View,
     nbr_views: Vec<View>,
@@ -345,6 +347,7 @@ fn prepare(
         channels: if colour { 3 } else { 1 },
         reference: convert(ref_image),
         neighbours: neighbours.iter().map(|(_, img)| convert(img)).collect(),
+        support_guide: ref_image.clone(),
         ref_view: reference.clone(),
         nbr_views: neighbours.iter().map(|(v, _)| (*v).clone()).collect(),
     })
@@ -412,6 +415,75 @@ impl Moments {
     }
 }
 
+/// Adaptive support weights of every pixel's NCC window ([`PhotoConfig::support_sigma_color`]),
+/// read off the reference image once per cost volume.
+struct Support {
+    /// Window offsets `(dx, dy)`, row-major over the window.
+    offsets: Vec<(isize, isize)>,
+    /// `weights[k·n + p]`: the weight of pixel `p + offsets[k]` in the window of `p` (0 where
+    /// that pixel is outside the image).
+    weights: Vec<f32>,
+    /// Per centre pixel, the sum of its window's weights inside the image.
+    total: Vec<f32>,
+}
+
+impl Support {
+    fn new(guide: &ImageF32, radius: usize, sigma_color: f32, sigma_space: f32) -> Self {
+        let (w, h, ch) = (
+            guide.width as usize,
+            guide.height as usize,
+            guide.channels as usize,
+        );
+        let n = w * h;
+        let r = radius as isize;
+        let offsets: Vec<(isize, isize)> = (-r..=r)
+            .flat_map(|dy| (-r..=r).map(move |dx| (dx, dy)))
+            .collect();
+        let kc = 1.0 / (2.0 * sigma_color * sigma_color);
+        let ks = 1.0 / (2.0 * sigma_space * sigma_space);
+        let g = &guide.data;
+        let mut weights = vec![0.0f32; offsets.len() * n];
+        weights
+            .par_chunks_mut(n.max(1))
+            .zip(&offsets)
+            .for_each(|(wk, &(dx, dy))| {
+                let spatial = (dx * dx + dy * dy) as f32 * ks;
+                for y in 0..h {
+                    let qy = y as isize + dy;
+                    if qy < 0 || qy >= h as isize {
+                        continue;
+                    }
+                    for x in 0..w {
+                        let qx = x as isize + dx;
+                        if qx < 0 || qx >= w as isize {
+                            continue;
+                        }
+                        let (p, q) = (y * w + x, qy as usize * w + qx as usize);
+                        let d2: f32 = (0..ch)
+                            .map(|c| {
+                                let d = g[p * ch + c] - g[q * ch + c];
+                                d * d
+                            })
+                            .sum::<f32>()
+                            / ch as f32;
+                        wk[p] = (-d2 * kc - spatial).exp();
+                    }
+                }
+            });
+        let mut total = vec![0.0f32; n];
+        for wk in weights.chunks_exact(n.max(1)) {
+            for (t, &v) in total.iter_mut().zip(wk) {
+                *t += v;
+            }
+        }
+        Support {
+            offsets,
+            weights,
+            total,
+        }
+    }
+}
+
 /// Per-worker buffers, reused across planes (never allocated per pixel).
 struct Scratch {
     /// Warped neighbour, channel-major `[c·n + p]`, `NaN` where unavailable.
@@ -427,6 +499,9 @@ struct Scratch {
     patch_nbr: Vec<f32>,
     /// Sorted neighbour costs of one pixel.
     pixel_costs: Vec<f32>,
+    /// Weighted NCC: the per-pixel terms `[t·n + p]` and one row of their window sums.
+    terms: Vec<f32>,
+    row_sums: Vec<f32>,
 }
 
 impl Scratch {
@@ -453,6 +528,8 @@ impl Scratch {
             patch_ref: vec![0.0; side * side * prep.channels],
             patch_nbr: vec![0.0; side * side * prep.channels],
             pixel_costs: Vec::with_capacity(prep.nbr_views.len()),
+            terms: Vec::new(),
+            row_sums: Vec::new(),
         }
     }
 }
@@ -499,6 +576,8 @@ struct Context<'a> {
     cfg: &'a PhotoConfig,
     /// Reference channel-major `[c·n + p]`.
     ref_planar: Vec<f32>,
+    /// Adaptive support weights (NCC with `support_sigma_color` > 0).
+    support: Option<Support>,
 }
 
 impl<'a> Context<'a> {
@@ -510,10 +589,19 @@ impl<'a> Context<'a> {
                 ref_planar[c * n + p] = prep.reference.data[p * ch + c];
             }
         }
+        let support = (cfg.measure == Measure::Ncc && cfg.support_weighted()).then(|| {
+            Support::new(
+                &prep.support_guide,
+                cfg.window_radius as usize,
+                cfg.support_sigma_color,
+                cfg.support_sigma_space,
+            )
+        });
         Context {
             prep,
             cfg,
             ref_planar,
+            support,
         }
     }
 
@@ -521,7 +609,12 @@ impl<'a> Context<'a> {
     /// pixel; [`NO_EVIDENCE`] where the window is not covered).
     fn neighbour_costs(&self, s: &mut Scratch, out: &mut [f32]) {
         match self.cfg.measure {
-            Measure::Ncc => self.ncc_costs(&s.warped, &mut s.moments, out),
+            Measure::Ncc => match &self.support {
+                Some(support) => {
+                    self.weighted_ncc_costs(support, &s.warped, &mut s.terms, &mut s.row_sums, out)
+                }
+                None => self.ncc_costs(&s.warped, &mut s.moments, out),
+            },
             Measure::Ssd | Measure::Sad => self.box_costs(&s.warped, &mut s.tables, out),
             _ => self.window_costs(&s.warped, &mut s.patch_ref, &mut s.patch_nbr, out),
         }
@@ -640,6 +733,118 @@ impl<'a> Context<'a> {
                 }
                 let score = ncc_from_moments(cov, va, vb, cnt as usize * ch);
                 *o = norm.cost(score.map(|s| 1.0 - s));
+            }
+        }
+    }
+
+    /// NCC with adaptive support weights ([`Support`]), in two passes over one output row
+    /// at a time, window offset by window offset (contiguous, vectorisable): the weighted
+    /// means of the masked reference and warped neighbour per channel, then the weighted
+    /// centred moments about them — centred in the sum, not as `E[x²] − E[x]²`, which in
+    /// `f32` loses the faint variance of plain paint. Then the same joint-variance NCC and
+    /// texture threshold as [`Self::ncc_costs`], per unit of weight. O(r²) per pixel.
+    fn weighted_ncc_costs(
+        &self,
+        support: &Support,
+        warped: &[f32],
+        terms: &mut Vec<f32>,
+        row_sums: &mut Vec<f32>,
+        out: &mut [f32],
+    ) {
+        let prep = self.prep;
+        let (w, h, ch) = (prep.width, prep.height, prep.channels);
+        let n = w * h;
+        let norm = self.cfg.effective_normalization();
+        let min_frac = self.cfg.min_valid_fraction;
+        // terms: the mask, then per channel the reference and the warped neighbour, both 0
+        // where the neighbour did not warp inside (such pixels count for neither mean).
+        let nt = 1 + 2 * ch;
+        terms.clear();
+        terms.resize(nt * n, 0.0);
+        for p in (0..n).filter(|&p| warped[p].is_finite()) {
+            terms[p] = 1.0;
+            for c in 0..ch {
+                terms[(1 + 2 * c) * n + p] = self.ref_planar[c * n + p];
+                terms[(2 + 2 * c) * n + p] = warped[c * n + p];
+            }
+        }
+        // Row sums: weight, per channel the two means, then cov, var I, var W.
+        let nr = 1 + 2 * ch + 3;
+        row_sums.clear();
+        row_sums.resize(nr * w, 0.0);
+        let (sums, moments) = row_sums.split_at_mut((1 + 2 * ch) * w);
+        // The in-image window offsets of row y: (weight row, first neighbour pixel, x range).
+        let spans = |y: usize| {
+            support
+                .offsets
+                .iter()
+                .enumerate()
+                .filter_map(move |(k, &(dx, dy))| {
+                    let qy = y as isize + dy;
+                    let x0 = (-dx).max(0) as usize;
+                    let x1 = (w as isize - dx).clamp(0, w as isize) as usize;
+                    (qy >= 0 && qy < h as isize && x0 < x1).then(|| {
+                        let q0 = qy as usize * w + (x0 as isize + dx) as usize;
+                        (k * n + y * w, q0, x0, x1)
+                    })
+                })
+        };
+        for y in 0..h {
+            sums.fill(0.0);
+            moments.fill(0.0);
+            for (wk, q0, x0, x1) in spans(y) {
+                let wrow = &support.weights[wk + x0..wk + x1];
+                for t in 0..nt {
+                    let src = &terms[t * n + q0..t * n + q0 + (x1 - x0)];
+                    let dst = &mut sums[t * w + x0..t * w + x1];
+                    for ((d, &v), &wt) in dst.iter_mut().zip(src).zip(wrow) {
+                        *d += wt * v;
+                    }
+                }
+            }
+            // Weighted sums → weighted means.
+            let (wsum, rest) = sums.split_at_mut(w);
+            for pair in rest.chunks_exact_mut(2 * w) {
+                for (x, &ws) in wsum.iter().enumerate() {
+                    let inv = if ws > 0.0 { 1.0 / ws } else { 0.0 };
+                    pair[x] *= inv;
+                    pair[w + x] *= inv;
+                }
+            }
+            let (cov, vars) = moments.split_at_mut(w);
+            let (va, vb) = vars.split_at_mut(w);
+            for (wk, q0, x0, x1) in spans(y) {
+                let len = x1 - x0;
+                let wrow = &support.weights[wk + x0..wk + x1];
+                let mask = &terms[q0..q0 + len];
+                for c in 0..ch {
+                    let iq = &terms[(1 + 2 * c) * n + q0..(1 + 2 * c) * n + q0 + len];
+                    let jq = &terms[(2 + 2 * c) * n + q0..(2 + 2 * c) * n + q0 + len];
+                    let mi = &rest[2 * c * w + x0..2 * c * w + x1];
+                    let mj = &rest[(2 * c + 1) * w + x0..(2 * c + 1) * w + x1];
+                    for i in 0..len {
+                        let wm = wrow[i] * mask[i];
+                        let (di, dj) = (iq[i] - mi[i], jq[i] - mj[i]);
+                        cov[x0 + i] += wm * di * dj;
+                        va[x0 + i] += wm * di * di;
+                        vb[x0 + i] += wm * dj * dj;
+                    }
+                }
+            }
+            for x in 0..w {
+                let p = y * w + x;
+                let ws = wsum[x];
+                out[p] = if ws > 0.0 && ws >= min_frac * support.total[p] {
+                    let score = ncc_from_weighted_moments(
+                        cov[x] as f64,
+                        va[x] as f64,
+                        vb[x] as f64,
+                        ws as f64 * ch as f64,
+                    );
+                    norm.cost(score.map(|s| 1.0 - s))
+                } else {
+                    NO_EVIDENCE
+                };
             }
         }
     }
@@ -1195,6 +1400,19 @@ mod tests {
             ]
         }
 
+        /// The homography of `plane` from the reference to neighbour 1 (pixel coordinates).
+        fn homography(&self, plane: &Plane) -> Matrix3<f64> {
+            let (a, b) = (&self.views[0], &self.views[1]);
+            plane_homography(
+                &a.camera,
+                &a.cam_from_world,
+                &b.camera,
+                &b.cam_from_world,
+                plane,
+            )
+            .unwrap()
+        }
+
         /// Ground-truth depth and the in-plane `s` coordinate of a reference pixel.
         fn truth(&self, x: u32, y: u32) -> (f64, f64) {
             let view = &self.views[0];
@@ -1533,14 +1751,7 @@ mod tests {
             let norm = cfg.effective_normalization();
             let mut checked_partial = 0;
             for (k, plane) in planes.iter().enumerate() {
-                let h = plane_homography(
-                    &scene.views[0].camera,
-                    &scene.views[0].cam_from_world,
-                    &scene.views[1].camera,
-                    &scene.views[1].cam_from_world,
-                    plane,
-                )
-                .unwrap();
+                let h = scene.homography(plane);
                 for &(x, y) in &[
                     (0i64, 0i64),
                     (1, 60),
@@ -1893,6 +2104,11 @@ mod tests {
     /// plane (depth 6, dark), seen by a reference camera and two neighbours 0.6 m to either
     /// side; returns the views, images and the reference's true depth per pixel.
     fn depth_edge_scene() -> (Vec<View>, Vec<ImageF32>, Vec<f64>) {
+        occluder_scene(|x| x < 0.0)
+    }
+
+    /// [`depth_edge_scene`] with the foreground (plane y = −1, depth 4) where `front(x)`.
+    fn occluder_scene(front: impl Fn(f64) -> bool) -> (Vec<View>, Vec<ImageF32>, Vec<f64>) {
         let views: Vec<View> = [-0.6, 0.0, 0.6]
             .iter()
             .enumerate()
@@ -1903,10 +2119,10 @@ mod tests {
             .collect();
         // (grey level, depth along +y from the cameras' plane y = −5) of what a ray sees.
         let hit = |o: &Vector3<f64>, d: &Vector3<f64>| -> (f64, f64) {
-            let front = o + d * ((-1.0 - o.y) / d.y);
-            if front.x < 0.0 {
-                let g = 0.55 + 0.4 * value_noise(front.x, front.z, 0.05, 3);
-                return (g, front.y + 5.0);
+            let near = o + d * ((-1.0 - o.y) / d.y);
+            if front(near.x) {
+                let g = 0.55 + 0.4 * value_noise(near.x, near.z, 0.05, 3);
+                return (g, near.y + 5.0);
             }
             let back = o + d * ((1.0 - o.y) / d.y);
             (0.05 + 0.4 * value_noise(back.x, back.z, 0.05, 4), 6.0)
@@ -1984,6 +2200,236 @@ mod tests {
             "near the edge: guided {} vs window {}",
             guided.0,
             window.0
+        );
+    }
+
+    /// The window samples of reference pixel `(x, y)` against neighbour `j` on `plane`: the
+    /// reference's grey value, the warped neighbour's (`NaN` where it does not warp inside)
+    /// and the support weight, for every window pixel inside the image.
+    fn window_samples(
+        scene: &TestScene,
+        plane: &Plane,
+        (x, y): (i64, i64),
+        r: i64,
+        (sigma_color, sigma_space): (f32, f32),
+    ) -> Vec<(f32, f32, f32)> {
+        let (ref_grey, nbr_grey) = (scene.images[0].to_gray(), scene.images[1].to_gray());
+        let h = scene.homography(plane);
+        let colour = |qx: i64, qy: i64| scene.images[0].pixel(qx as u32, qy as u32).to_vec();
+        let centre = colour(x, y);
+        let mut out = Vec::new();
+        for qy in (y - r).max(0)..=(y + r).min(HEIGHT as i64 - 1) {
+            for qx in (x - r).max(0)..=(x + r).min(WIDTH as i64 - 1) {
+                let d2: f32 = colour(qx, qy)
+                    .iter()
+                    .zip(&centre)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum::<f32>()
+                    / 3.0;
+                let s2 = ((qx - x) * (qx - x) + (qy - y) * (qy - y)) as f32;
+                let weight = (-d2 / (2.0 * sigma_color * sigma_color)
+                    - s2 / (2.0 * sigma_space * sigma_space))
+                    .exp();
+                let hx = h * Vector3::new(qx as f64 + 0.5, qy as f64 + 0.5, 1.0);
+                let mut px = [f32::NAN];
+                let ok = hx.z > 0.0 && nbr_grey.sample_bilinear(hx.x / hx.z, hx.y / hx.z, &mut px);
+                let v = if ok { px[0] } else { f32::NAN };
+                out.push((ref_grey.get(qx as u32, qy as u32, 0), v, weight));
+            }
+        }
+        out
+    }
+
+    /// The support-weighted NCC path against a naive weighted NCC (weighted means, weighted
+    /// centred moments, per-weight texture threshold), windows partly outside the neighbour
+    /// included; and with huge σ it is the box NCC.
+    #[test]
+    fn support_weighted_ncc_matches_a_naive_weighted_ncc() {
+        let scene = TestScene::new();
+        let planes = fronto_parallel_planes(&scene.views[0], 4.5, 5.5, 3).unwrap();
+        let nbr = [(&scene.views[1], &scene.images[1])];
+        let sigmas = (0.1f32, 2.0f32);
+        let cfg = PhotoConfig {
+            best_k: 1,
+            window_radius: 2,
+            support_sigma_color: sigmas.0,
+            support_sigma_space: sigmas.1,
+            ..Default::default()
+        };
+        let volume =
+            plane_cost_volume(&scene.views[0], &scene.images[0], &nbr, &planes, &cfg).unwrap();
+        let norm = cfg.effective_normalization();
+        let mut partial = 0;
+        for (k, plane) in planes.iter().enumerate() {
+            for &(x, y) in &[
+                (0i64, 0i64),
+                (1, 60),
+                (80, 60),
+                (159, 119),
+                (158, 3),
+                (40, 20),
+                (75, 61),
+            ] {
+                let samples = window_samples(&scene, plane, (x, y), 2, sigmas);
+                let total: f64 = samples.iter().map(|s| s.2 as f64).sum();
+                let valid: Vec<_> = samples.iter().filter(|s| s.1.is_finite()).collect();
+                partial += usize::from(valid.len() < samples.len() && !valid.is_empty());
+                let wsum: f64 = valid.iter().map(|s| s.2 as f64).sum();
+                let want = if wsum > 0.0 && wsum >= 0.5 * total {
+                    let mean = |f: &dyn Fn(&(f32, f32, f32)) -> f32| {
+                        valid.iter().map(|s| s.2 as f64 * f(s) as f64).sum::<f64>() / wsum
+                    };
+                    let (mi, mv) = (mean(&|s| s.0), mean(&|s| s.1));
+                    let (mut cov, mut va, mut vb) = (0.0, 0.0, 0.0);
+                    for s in &valid {
+                        let (di, dv) = (s.0 as f64 - mi, s.1 as f64 - mv);
+                        cov += s.2 as f64 * di * dv;
+                        va += s.2 as f64 * di * di;
+                        vb += s.2 as f64 * dv * dv;
+                    }
+                    let min = crate::photo::measures::NCC_MIN_VARIANCE * wsum;
+                    let score = (va > min && vb > min)
+                        .then(|| (cov / (va * vb).sqrt()).clamp(-1.0, 1.0) as f32);
+                    norm.cost(score.map(|s| 1.0 - s))
+                } else {
+                    1.0
+                };
+                let got = volume.cost(x as usize, y as usize, k);
+                assert!(
+                    (got - want).abs() < 2e-4,
+                    "plane {k} ({x},{y}): weighted path {got} vs naive {want}"
+                );
+            }
+        }
+        assert!(partial > 0, "no window was partly outside the neighbour");
+        // σ → ∞: every weight 1, the box NCC.
+        let flat = PhotoConfig {
+            support_sigma_color: 1e6,
+            support_sigma_space: 1e6,
+            ..cfg
+        };
+        let boxed = PhotoConfig {
+            support_sigma_color: 0.0,
+            ..cfg
+        };
+        let a = plane_cost_volume(&scene.views[0], &scene.images[0], &nbr, &planes, &flat).unwrap();
+        let b =
+            plane_cost_volume(&scene.views[0], &scene.images[0], &nbr, &planes, &boxed).unwrap();
+        let worst = a
+            .costs
+            .iter()
+            .zip(&b.costs)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0f32, f32::max);
+        assert!(
+            worst < 1e-4,
+            "uniform weights differ from the box NCC by {worst}"
+        );
+    }
+
+    /// Weighted NCC keeps NCC's invariance: a gain and a bias on the neighbour change no cost.
+    #[test]
+    fn support_weighted_ncc_ignores_gain_and_bias() {
+        let scene = TestScene::new();
+        let planes = fronto_parallel_planes(&scene.views[0], 4.5, 5.5, 4).unwrap();
+        let cfg = PhotoConfig {
+            best_k: 1,
+            window_radius: 2,
+            support_sigma_color: 0.08,
+            support_sigma_space: 2.0,
+            ..Default::default()
+        };
+        let mut dimmed = scene.images[1].clone();
+        for v in &mut dimmed.data {
+            *v = 0.6 * *v + 0.2;
+        }
+        let volume = |img: &ImageF32| {
+            plane_cost_volume(
+                &scene.views[0],
+                &scene.images[0],
+                &[(&scene.views[1], img)],
+                &planes,
+                &cfg,
+            )
+            .unwrap()
+        };
+        let (a, b) = (volume(&scene.images[1]), volume(&dimmed));
+        // On the textured half (on plain paint the gain moves the variance across NCC's
+        // texture threshold, as it does for the box NCC).
+        let mut checked = 0;
+        let mut worst = 0.0f32;
+        for y in 0..HEIGHT {
+            for x in 0..WIDTH {
+                if scene.truth(x, y).1 > -0.1 {
+                    continue;
+                }
+                for k in 0..planes.len() {
+                    let (ca, cb) = (
+                        a.cost(x as usize, y as usize, k),
+                        b.cost(x as usize, y as usize, k),
+                    );
+                    worst = worst.max((ca - cb).abs());
+                    checked += usize::from(ca < 1.0);
+                }
+            }
+        }
+        assert!(checked > 2_000, "{checked} costs checked");
+        assert!(worst < 1e-3, "gain and bias moved a cost by {worst}");
+    }
+
+    /// Bright pickets 0.1 m wide every 0.5 m (about 4 px, every 19 px) in front of a dark
+    /// textured wall 2 m behind them: with box-weighted 5×5 NCC (then the guided filter, as
+    /// the sweep baseline) the wall between the pickets takes their depth; with adaptive
+    /// support weights the wall's pixels match the wall.
+    #[test]
+    fn support_weights_keep_a_picket_fence_depth_off_the_wall_behind() {
+        let picket = |x: f64| x.rem_euclid(0.5) < 0.1;
+        let (views, images, truth) = occluder_scene(picket);
+        let nbrs = [(&views[0], &images[0]), (&views[2], &images[2])];
+        let planes = fronto_parallel_planes(&views[1], 3.5, 7.0, 96).unwrap();
+        let w = WIDTH as usize;
+        // Wall pixels within 4 px (horizontally) of a picket, away from the border.
+        let beside: Vec<usize> = (10..HEIGHT as usize - 10)
+            .flat_map(|y| (10..w - 10).map(move |x| y * w + x))
+            .filter(|&p| {
+                let (x, y) = (p % w, p / w);
+                truth[p] > 5.0 && (x - 4..=x + 4).any(|q| truth[y * w + q] < 5.0)
+            })
+            .collect();
+        let score = |sigma_color: f32| {
+            let sweep = SweepConfig {
+                photo: PhotoConfig {
+                    window_radius: 2,
+                    aggregation: Aggregation::Guided {
+                        radius: 7,
+                        eps: 1e-3,
+                    },
+                    support_sigma_color: sigma_color,
+                    support_sigma_space: 3.0,
+                    ..Default::default()
+                },
+                ..Default::default()
+            };
+            let r = plane_sweep(&views[1], &images[1], &nbrs, &planes, &sweep).unwrap();
+            beside
+                .iter()
+                .filter(|&&p| ((r.depth[p] as f64 - truth[p]) / truth[p]).abs() <= 0.01)
+                .count() as f64
+                / beside.len() as f64
+        };
+        let (boxed, weighted) = (score(0.0), score(0.05));
+        eprintln!(
+            "wall beside the pickets within 1%: box {boxed:.3}, weighted {weighted:.3} ({} px)",
+            beside.len()
+        );
+        assert!(
+            beside.len() > 1000,
+            "{} wall pixels beside pickets",
+            beside.len()
+        );
+        assert!(
+            weighted >= boxed + 0.2,
+            "weighted {weighted} vs box {boxed}"
         );
     }
 }
