@@ -284,8 +284,6 @@ struct Prepared {
     reference: ImageF32,
     /// Neighbours, same channel count as the reference.
     neighbours: Vec<ImageF32>,
-    /// The reference image as given (colour if it has colour): the support weights' guide.
-    support_guide: ImageF32,
     /// Reference-frame homographies are computed per plane; these are the views.
     ref_view: View,
     nbr_views: Vec<View>,
@@ -347,7 +345,6 @@ fn prepare(
         channels: if colour { 3 } else { 1 },
         reference: convert(ref_image),
         neighbours: neighbours.iter().map(|(_, img)| convert(img)).collect(),
-        support_guide: ref_image.clone(),
         ref_view: reference.clone(),
         nbr_views: neighbours.iter().map(|(v, _)| (*v).clone()).collect(),
     })
@@ -581,7 +578,9 @@ struct Context<'a> {
 }
 
 impl<'a> Context<'a> {
-    fn new(prep: &'a Prepared, cfg: &'a PhotoConfig) -> Self {
+    /// `guide` is the reference image as given (colour if it has colour): the support
+    /// weights are read off it.
+    fn new(prep: &'a Prepared, cfg: &'a PhotoConfig, guide: &ImageF32) -> Self {
         let (n, ch) = (prep.width * prep.height, prep.channels);
         let mut ref_planar = vec![0.0f32; n * ch];
         for p in 0..n {
@@ -591,7 +590,7 @@ impl<'a> Context<'a> {
         }
         let support = (cfg.measure == Measure::Ncc && cfg.support_weighted()).then(|| {
             Support::new(
-                &prep.support_guide,
+                guide,
                 cfg.window_radius as usize,
                 cfg.support_sigma_color,
                 cfg.support_sigma_space,
@@ -970,7 +969,7 @@ pub fn plane_cost_volume(
     cfg: &PhotoConfig,
 ) -> Result<CostVolume, PhotoError> {
     let prep = prepare(reference, ref_image, neighbours, planes, cfg)?;
-    let ctx = Context::new(&prep, cfg);
+    let ctx = Context::new(&prep, cfg, ref_image);
     let slices: Vec<Vec<f32>> = planes
         .par_iter()
         .map_init(
