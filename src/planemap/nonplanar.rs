@@ -131,14 +131,10 @@ impl NonplanarConfig {
                 format!("= {} must be finite and ≥ 0", self.fit_gap_weight),
             );
         }
-        if !(self.sweep_support_sigma_color.is_finite() && self.sweep_support_sigma_color >= 0.0) {
-            return bad(
-                "nonplanar.sweep_support_sigma_color",
-                format!(
-                    "= {} must be finite and ≥ 0 (0 = box window)",
-                    self.sweep_support_sigma_color
-                ),
-            );
+        // The sweep's own check of its settings; the support weights' σc is the only one
+        // of them set here that `sweep_neighbours`' check below does not cover.
+        if let Err(e) = self.sweep_config().sweep.photo.validate() {
+            return bad("nonplanar.sweep_support_sigma_color", e.to_string());
         }
         if !(self.fit_gap_scale.is_finite() && self.fit_gap_scale > 0.0) {
             return bad(
