@@ -299,6 +299,7 @@ mod tests {
             cycles: 0,
             seconds: (0.0, 0.0),
             planarity: None,
+            sweep_depth: None,
         };
         let m = match_by_overlap(2, std::iter::once((&view, &gt_depth, gt_ids.as_slice())));
         assert_eq!(m, vec![7, 3]);

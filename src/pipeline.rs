@@ -281,6 +281,10 @@ pub struct Prepared {
     pub images: Option<Vec<ImageF32>>,
     /// The planar/non-planar classifier, loaded when `nonplanar.enabled`.
     pub classifier: Option<PlanarityModel>,
+    /// Per view, the non-planar label's classifier map and sweep once computed
+    /// ([`NonplanarView::sweep`]): they do not depend on the plane labels, so the labelling
+    /// after the crease hypotheses reuses the first pass's. Empty without the label.
+    pub nonplanar_sweeps: Vec<std::sync::OnceLock<NonplanarView>>,
     /// Seconds spent per stage: scale + normals, axes, hypotheses.
     pub seconds: [f64; 3],
 }
@@ -432,8 +436,15 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
     } else {
         None
     };
+    let nonplanar_sweeps = match classifier {
+        Some(_) => (0..scene.views.len())
+            .map(|_| std::sync::OnceLock::new())
+            .collect(),
+        None => Vec::new(),
+    };
     Ok(Prepared {
         classifier,
+        nonplanar_sweeps,
         scale,
         oriented,
         axes,
@@ -474,6 +485,11 @@ pub struct ViewPlanemap {
     pub seconds: (f64, f64),
     /// The classifier's `P(planar)` map, when the non-planar label was used.
     pub planarity: Option<PlanarityMap>,
+    /// The non-planar label's sweep depth on textured pixels (camera z, 0 elsewhere:
+    /// [`NonplanarView::textured_depth`]), when the label was used; written to
+    /// `sweep/NAME.pfm` and reloaded by `--resume`, since the multi-view confirmation
+    /// ([`confirm_nonplanar`]) needs every view's.
+    pub sweep_depth: Option<Vec<f32>>,
 }
 
 /// The planar part of one view's energy: the visibility-conflict data term, the optional
@@ -548,18 +564,41 @@ pub fn label_view(
     let mut energy = view_energy(scene, prepared, view_index, image, cfg)?;
     // The non-planar label (Gallup et al. 2010): classifier costs and the sweep's depth.
     let evidence = match (&prepared.classifier, &prepared.images) {
-        (Some(model), Some(images)) => Some(
-            NonplanarView::compute(
-                scene,
-                images,
-                view_index,
-                &prepared.axes.directions,
-                &energy.planes,
-                model,
-                &cfg.nonplanar,
+        (Some(model), Some(images)) => {
+            let axes = &prepared.axes.directions;
+            let cached = prepared.nonplanar_sweeps.get(view_index);
+            let swept = match cached.and_then(|c| c.get()) {
+                Some(v) => v.clone(),
+                None => {
+                    let v = NonplanarView::sweep(
+                        scene,
+                        images,
+                        view_index,
+                        axes,
+                        model,
+                        &cfg.nonplanar,
+                    )
+                    .map_err(planemap_err)?;
+                    if let Some(c) = cached {
+                        // Each view is labelled by one thread at a time: set once.
+                        let _ = c.set(v.clone());
+                    }
+                    v
+                }
+            };
+            Some(
+                swept
+                    .with_plane_costs(
+                        scene,
+                        images,
+                        view_index,
+                        axes,
+                        &energy.planes,
+                        &cfg.nonplanar,
+                    )
+                    .map_err(planemap_err)?,
             )
-            .map_err(planemap_err)?,
-        ),
+        }
         _ => None,
     };
     let unary_np = match &evidence {
@@ -653,6 +692,7 @@ pub fn label_view(
             cycles: solution.cycles.len(),
             seconds: (t_build, t_solve),
             planarity: None,
+            sweep_depth: None,
         });
     };
     // Planes where a plane won; the sweep's depth (and its gradient's normals) elsewhere.
@@ -686,6 +726,7 @@ pub fn label_view(
         cycles: solution.cycles.len(),
         seconds: (t_build, t_solve),
         planarity: Some(x.evidence.planarity.clone()),
+        sweep_depth: Some(x.evidence.textured_depth.clone()),
     })
 }
 
@@ -883,7 +924,8 @@ pub fn run(
                 return Ok((done.clone(), false));
             }
             if opts.resume {
-                if let Some(done) = load_view_outputs(out, &scene, &prepared, i) {
+                let need_sweep = prepared.classifier.is_some();
+                if let Some(done) = load_view_outputs(out, &scene, &prepared, i, need_sweep) {
                     bar.inc(1);
                     return Ok((done, true));
                 }
@@ -903,6 +945,20 @@ pub fn run(
         let (v, skipped) = r?;
         views.push(v);
         resumed.push(skipped);
+    }
+    let np = &cfg.nonplanar;
+    if np.enabled && np.consistent_views > 0 {
+        let changed = confirm_nonplanar(&scene, &mut views, np);
+        for (v, &n) in views.iter().zip(&changed) {
+            if n > 0 {
+                write_view_outputs(out, &scene, v)?;
+            }
+        }
+        progress.println(&format!(
+            "{} pixels made non-planar: their sweep depth is confirmed by ≥ {} other views and no plane gives it",
+            changed.iter().sum::<usize>(),
+            np.consistent_views
+        ));
     }
     let t = Instant::now();
     let fused = fuse(&scene, &views, &cfg.fusion)?;
@@ -967,6 +1023,73 @@ pub fn run(
     Ok((prepared, views, summary))
 }
 
+/// Multi-view confirmation of the non-planar label ([`NonplanarConfig::consistent_views`]):
+/// in every view of `views` (labelled, with their sweep depths), a pixel whose sweep depth
+/// at least `consistent_views` other views of `views` confirm
+/// ([`crate::planemap::nonplanar::sweep_confirmations`]) and whose labelled depth differs
+/// from it by more than `consistency_tolerance` becomes non-planar with the sweep's depth
+/// (and its normal). Every count is taken from the sweep depths as they were labelled, so
+/// the result does not depend on the order of the views. Returns the pixels changed per
+/// view.
+pub fn confirm_nonplanar(
+    scene: &Scene,
+    views: &mut [ViewPlanemap],
+    cfg: &NonplanarConfig,
+) -> Vec<usize> {
+    let mut sweeps: Vec<Option<&[f32]>> = vec![None; scene.views.len()];
+    for v in views.iter() {
+        if let (Some(d), Some(slot)) = (&v.sweep_depth, sweeps.get_mut(v.view_index)) {
+            *slot = Some(d.as_slice());
+        }
+    }
+    let counts: Vec<Vec<u16>> = views
+        .iter()
+        .map(|v| {
+            crate::planemap::nonplanar::sweep_confirmations(
+                scene,
+                v.view_index,
+                &sweeps,
+                cfg.consistency_tolerance,
+                cfg.consistency_edge_px,
+            )
+        })
+        .collect();
+    let tol = cfg.consistency_tolerance as f32;
+    let min_views = cfg.consistent_views.min(u16::MAX as usize) as u16;
+    views
+        .iter_mut()
+        .zip(&counts)
+        .map(|(v, count)| {
+            let Some(sweep) = &v.sweep_depth else {
+                return 0;
+            };
+            let camera = &scene.views[v.view_index].camera;
+            let (w, h) = (v.width as usize, v.height as usize);
+            if sweep.len() != w * h || count.len() != w * h {
+                return 0;
+            }
+            let normals =
+                normals_from_depth(sweep, w, h, |x, y| camera.pixel_ray(x as u32, y as u32));
+            let mut changed = 0;
+            for p in 0..w * h {
+                let z = sweep[p];
+                let differs =
+                    v.depth[p].is_nan() || v.depth[p] <= 0.0 || (v.depth[p] - z).abs() > tol * z;
+                if count[p] >= min_views && z > 0.0 && differs {
+                    v.depth[p] = z;
+                    v.normals[p] = normals[p];
+                    v.labels[p] = NONPLANAR;
+                    changed += 1;
+                }
+            }
+            changed
+        })
+        .collect()
+}
+
+/// Where the non-planar label's sweep depth maps go (PFM, camera z, 0 = none).
+pub const SWEEP_DIR: &str = "sweep";
+
 /// The per-view output folders under a run's output directory.
 const OUTPUT_DIRS: [&str; 4] = [
     "planemaps",
@@ -1026,6 +1149,17 @@ pub fn write_view_outputs(
         data: result.depth.clone(),
     };
     write_pfm_path(&out.join("depth").join(format!("{stem}.pfm")), &depth)?;
+    if let Some(sweep) = &result.sweep_depth {
+        let dir = out.join(SWEEP_DIR);
+        std::fs::create_dir_all(&dir).map_err(|e| write_err(&dir, e))?;
+        let map = ImageF32 {
+            width: w,
+            height: h,
+            channels: 1,
+            data: sweep.clone(),
+        };
+        write_pfm_path(&dir.join(format!("{stem}.pfm")), &map)?;
+    }
     let name = Path::new(&view.name)
         .file_name()
         .map(|s| s.to_string_lossy().into_owned())
@@ -1059,12 +1193,14 @@ pub fn write_view_outputs(
 /// Colour of non-planar pixels in the `_vis.png` planemaps (label PNG value 0 with a depth).
 pub const NONPLANAR_COLOR: [u8; 3] = [255, 0, 255];
 
-/// Reloads a view's outputs for `--resume`; `None` if any is missing or unreadable.
+/// Reloads a view's outputs for `--resume`; `None` if any is missing or unreadable
+/// (including the non-planar label's sweep depth when `need_sweep`).
 fn load_view_outputs(
     out: &Path,
     scene: &Scene,
     prepared: &Prepared,
     view_index: usize,
+    need_sweep: bool,
 ) -> Option<ViewPlanemap> {
     let view = &scene.views[view_index];
     let stem = output_stem(&view.name);
@@ -1073,6 +1209,16 @@ fn load_view_outputs(
             .ok()?;
     let depth =
         crate::io::pfm::read_pfm_path(&out.join("depth").join(format!("{stem}.pfm"))).ok()?;
+    let sweep_depth = if need_sweep {
+        let d =
+            crate::io::pfm::read_pfm_path(&out.join(SWEEP_DIR).join(format!("{stem}.pfm"))).ok()?;
+        if (d.width, d.height, d.channels) != (w, h, 1) {
+            return None;
+        }
+        Some(d.data)
+    } else {
+        None
+    };
     if (w, h) != (view.camera.width, view.camera.height)
         || (depth.width, depth.height) != (w, h)
         || ids
@@ -1081,26 +1227,42 @@ fn load_view_outputs(
     {
         return None;
     }
-    // Label 0 with a depth is a non-planar pixel: its normal comes from the depth map.
-    let (wu, hu) = (w as usize, h as usize);
-    let ray = |x: usize, y: usize| {
-        view.camera
-            .unproject(&Vector2::new(x as f64 + 0.5, y as f64 + 0.5))
+    // The normals written to the COLMAP normal map, exactly as labelled (planes' normals
+    // facing the camera, non-planar pixels' from the sweep's depth map); if that file is
+    // unreadable, the planes' normals and, where label 0 has a depth (a non-planar pixel),
+    // the depth map's gradient.
+    let name = Path::new(&view.name)
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| view.name.clone());
+    let saved = crate::io::dense::read_normal_map_path(
+        &out.join("stereo/normal_maps")
+            .join(format!("{name}.geometric.bin")),
+    )
+    .ok()
+    .filter(|n| (n.width, n.height, n.channels) == (w, h, 3));
+    let normals: Vec<[f32; 3]> = match saved {
+        Some(n) => n.data.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        None => {
+            let ray = |x: usize, y: usize| {
+                view.camera
+                    .unproject(&Vector2::new(x as f64 + 0.5, y as f64 + 0.5))
+            };
+            let sweep_normals = normals_from_depth(&depth.data, w as usize, h as usize, ray);
+            ids.iter()
+                .zip(&depth.data)
+                .zip(&sweep_normals)
+                .map(|((&id, &z), n_np)| {
+                    if id == 0 {
+                        return if z > 0.0 { *n_np } else { [0.0; 3] };
+                    }
+                    let n = view.cam_from_world.rotation
+                        * prepared.hypotheses[id as usize - 1].plane.normal;
+                    [n.x as f32, n.y as f32, n.z as f32]
+                })
+                .collect()
+        }
     };
-    let sweep_normals = normals_from_depth(&depth.data, wu, hu, ray);
-    let normals = ids
-        .iter()
-        .zip(&depth.data)
-        .zip(&sweep_normals)
-        .map(|((&id, &z), n_np)| {
-            if id == 0 {
-                return if z > 0.0 { *n_np } else { [0.0; 3] };
-            }
-            let n =
-                view.cam_from_world.rotation * prepared.hypotheses[id as usize - 1].plane.normal;
-            [n.x as f32, n.y as f32, n.z as f32]
-        })
-        .collect();
     Some(ViewPlanemap {
         view_index,
         width: w,
@@ -1120,6 +1282,7 @@ fn load_view_outputs(
         cycles: 0,
         seconds: (0.0, 0.0),
         planarity: None,
+        sweep_depth,
     })
 }
 
@@ -1391,4 +1554,88 @@ fn write_planes_json(
         std::io::Write::write_all(f, json.as_bytes())
     })
     .map_err(|e| write_err(path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planemap::nonplanar::tests::corner_depths;
+
+    #[test]
+    fn confirmed_sweep_depths_replace_the_planes_that_miss_them() {
+        let (scene, depths) = corner_depths();
+        // Every view labelled with a plane 10 % too far, except view 0's left half, which a
+        // plane gets right; the sweep has the truth everywhere.
+        let views: Vec<ViewPlanemap> = depths
+            .iter()
+            .enumerate()
+            .map(|(i, d)| {
+                let w = scene.views[i].camera.width as usize;
+                ViewPlanemap {
+                    view_index: i,
+                    width: w as u32,
+                    height: (d.len() / w) as u32,
+                    labels: vec![0; d.len()],
+                    depth: d
+                        .iter()
+                        .enumerate()
+                        .map(|(p, &z)| if i == 0 && p % w < w / 2 { z } else { z * 1.1 })
+                        .collect(),
+                    normals: vec![[0.0, 0.0, -1.0]; d.len()],
+                    candidate_labels: 1,
+                    energy: (0.0, 0.0),
+                    cycles: 0,
+                    seconds: (0.0, 0.0),
+                    planarity: None,
+                    sweep_depth: Some(d.clone()),
+                }
+            })
+            .collect();
+        let cfg = NonplanarConfig {
+            consistent_views: 2,
+            ..Default::default()
+        };
+        let mut out = views.clone();
+        let changed = confirm_nonplanar(&scene, &mut out, &cfg);
+        let w = scene.views[0].camera.width as usize;
+        let counts: Vec<Vec<u16>> = (0..3)
+            .map(|i| {
+                let all: Vec<Option<&[f32]>> = depths.iter().map(|d| Some(d.as_slice())).collect();
+                crate::planemap::nonplanar::sweep_confirmations(&scene, i, &all, 0.01, 2)
+            })
+            .collect();
+        for (i, v) in out.iter().enumerate() {
+            let mut n = 0;
+            for p in 0..v.depth.len() {
+                let right_plane = i == 0 && p % w < w / 2;
+                if counts[i][p] >= 2 && !right_plane && depths[i][p] > 0.0 {
+                    assert_eq!(v.labels[p], NONPLANAR);
+                    assert_eq!(v.depth[p], depths[i][p]);
+                    assert!(v.normals[p] != [0.0, 0.0, -1.0] || v.normals[p] == [0.0; 3]);
+                    n += 1;
+                } else {
+                    assert_eq!(v.labels[p], 0);
+                    assert_eq!(v.depth[p], views[i].depth[p]);
+                }
+            }
+            assert_eq!(changed[i], n);
+            assert!(n > 1000, "view {i}: {n}");
+        }
+        // More confirmations than there are other views: nothing changes; nor without
+        // sweep depths.
+        let mut out = views.clone();
+        let strict = NonplanarConfig {
+            consistent_views: 3,
+            ..Default::default()
+        };
+        assert_eq!(confirm_nonplanar(&scene, &mut out, &strict), vec![0, 0, 0]);
+        for (a, b) in out.iter().zip(&views) {
+            assert_eq!((&a.depth, &a.labels), (&b.depth, &b.labels));
+        }
+        let mut bare = views.clone();
+        for v in &mut bare {
+            v.sweep_depth = None;
+        }
+        assert_eq!(confirm_nonplanar(&scene, &mut bare, &cfg), vec![0, 0, 0]);
+    }
 }

@@ -741,6 +741,7 @@ fn finish_baseline(
                 cycles: 0,
                 seconds: (0.0, 0.0),
                 planarity: None,
+                sweep_depth: None,
             }
         })
         .collect();

@@ -24,6 +24,7 @@
 use std::path::PathBuf;
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::{PlanemapConfig, PlanemapEnergy, PlanemapError};
@@ -76,6 +77,19 @@ pub struct NonplanarConfig {
     pub fit_gap_weight: f64,
     /// The cost difference that counts as a full gap (`g = 1`).
     pub fit_gap_scale: f64,
+    /// Multi-view confirmation, applied after every view is labelled: a pixel whose sweep
+    /// depth at least this many *other* views' sweep depths confirm (the point, projected
+    /// into them, lands on a pixel whose sweep depth agrees within
+    /// `consistency_tolerance`) becomes non-planar with that depth wherever its label's
+    /// depth differs by more than the tolerance — a surface several views agree on that no
+    /// plane explains. 0 turns it off. See [`sweep_confirmations`].
+    pub consistent_views: usize,
+    /// Relative depth tolerance of that confirmation and of "differs".
+    pub consistency_tolerance: f64,
+    /// Pixels within this many pixels (Chebyshev) of a jump in the sweep's depth map (more
+    /// than 5 % between 4-neighbours) are never confirmed: a window straddling a silhouette
+    /// lends the near depth to the far side (the "halo"), consistently in every view.
+    pub consistency_edge_px: usize,
 }
 
 impl Default for NonplanarConfig {
@@ -92,6 +106,9 @@ impl Default for NonplanarConfig {
             min_confidence: 0.1,
             fit_gap_weight: 1.0,
             fit_gap_scale: 0.2,
+            consistent_views: 4,
+            consistency_tolerance: 0.01,
+            consistency_edge_px: 2,
         }
     }
 }
@@ -145,6 +162,13 @@ impl NonplanarConfig {
         if self.sweep_neighbours == 0 {
             return bad("nonplanar.sweep_neighbours", "must be ≥ 1".into());
         }
+        let tol = self.consistency_tolerance;
+        if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
+            return bad(
+                "nonplanar.consistency_tolerance",
+                format!("= {tol} must be in (0, 1)"),
+            );
+        }
         Ok(())
     }
 
@@ -165,6 +189,10 @@ impl NonplanarConfig {
     }
 }
 
+fn photo_err(e: crate::photo::PhotoError) -> PlanemapError {
+    PlanemapError::Input(format!("non-planar sweep: {e}"))
+}
+
 /// One view's non-planar evidence: the classifier's map and the sweep's depth and cost.
 #[derive(Debug, Clone)]
 pub struct NonplanarView {
@@ -175,6 +203,13 @@ pub struct NonplanarView {
     pub depth: Vec<f32>,
     /// The sweep's winning photo-consistency cost per pixel in [0, 1] (1 where none).
     pub cost: Vec<f32>,
+    /// The sweep's depth wherever the reference image is textured (grey-level std ≥ 0.02
+    /// over 7×7, [`crate::baseline::texture_mask`]), whatever its confidence; 0 elsewhere.
+    /// What the multi-view confirmation ([`sweep_confirmations`]) checks: agreement between
+    /// views is a stronger test of a depth than the margin over the second-best plane, which
+    /// shrinks as the planes get denser; on plain paint every view can agree on a wrong
+    /// depth, hence the texture mask.
+    pub textured_depth: Vec<f32>,
     /// The lowest cost of the view's plane labels per pixel, scored like the sweep (same
     /// measure, aggregation and neighbours; 1 where none); empty when not computed
     /// (`fit_gap_weight` = 0).
@@ -184,13 +219,29 @@ pub struct NonplanarView {
 impl NonplanarView {
     /// Classifies view `view_index` of an undistorted scene (`images` holds every view's
     /// image), sweeps it along `axes` (world directions) and, when `cfg.fit_gap_weight > 0`,
-    /// scores the view's plane labels `planes` the way the sweep scores its planes.
+    /// scores the view's plane labels `planes` the way the sweep scores its planes:
+    /// [`NonplanarView::sweep`] then [`NonplanarView::with_plane_costs`].
     pub fn compute(
         scene: &Scene,
         images: &[ImageF32],
         view_index: usize,
         axes: &[Vector3<f64>],
         planes: &[Plane],
+        model: &PlanarityModel,
+        cfg: &NonplanarConfig,
+    ) -> Result<Self, PlanemapError> {
+        Self::sweep(scene, images, view_index, axes, model, cfg)?
+            .with_plane_costs(scene, images, view_index, axes, planes, cfg)
+    }
+
+    /// The part that does not depend on the plane labels: the classifier's map and the
+    /// sweep (`best_plane_cost` left empty). The pipeline computes it once per view and
+    /// reuses it in the labelling after the crease hypotheses.
+    pub fn sweep(
+        scene: &Scene,
+        images: &[ImageF32],
+        view_index: usize,
+        axes: &[Vector3<f64>],
         model: &PlanarityModel,
         cfg: &NonplanarConfig,
     ) -> Result<Self, PlanemapError> {
@@ -201,19 +252,16 @@ impl NonplanarView {
             .map_err(|e| PlanemapError::Input(format!("planarity classifier: {e}")))?;
         let n = image.width as usize * image.height as usize;
         let sweep_cfg = cfg.sweep_config();
-        let view = &scene.views[view_index];
-        // No neighbour or no points: the label has no depth anywhere (infeasible), and the
-        // fit gap is not computed.
+        // No neighbour or no points: the label has no depth anywhere (infeasible).
         let Ok(setup) = sweep_setup(scene, view_index, axes, &sweep_cfg) else {
             return Ok(NonplanarView {
                 planarity,
                 depth: vec![0.0; n],
                 cost: vec![1.0; n],
+                textured_depth: vec![0.0; n],
                 best_plane_cost: Vec::new(),
             });
         };
-        let photo_err =
-            |e: crate::photo::PhotoError| PlanemapError::Input(format!("non-planar sweep: {e}"));
         let sweep = setup
             .sweep(scene, images, view_index, &sweep_cfg)
             .map_err(photo_err)?;
@@ -230,24 +278,57 @@ impl NonplanarView {
                 }
             })
             .collect();
-        let cost = sweep.cost;
-        // The view's planes scored with the sweep's measure and neighbours.
-        let best_plane_cost = if cfg.fit_gap_weight > 0.0 && !planes.is_empty() {
-            let pairs = setup.pairs(scene, images);
-            let volume = plane_cost_volume(view, image, &pairs, planes, &sweep_cfg.sweep.photo)
-                .map_err(photo_err)?;
-            (0..n)
-                .map(|p| volume.pixel_costs(p).iter().copied().fold(1.0f32, f32::min))
-                .collect()
-        } else {
-            Vec::new()
-        };
+        let textured = crate::baseline::texture_mask(image, 3, 0.02);
+        let textured_depth = sweep
+            .depth
+            .iter()
+            .zip(&textured)
+            .map(|(&z, &t)| {
+                if t && z.is_finite() && z > 0.0 {
+                    z
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         Ok(NonplanarView {
             planarity,
             depth,
-            cost,
-            best_plane_cost,
+            cost: sweep.cost,
+            textured_depth,
+            best_plane_cost: Vec::new(),
         })
+    }
+
+    /// Adds the fit gap's plane costs (when `cfg.fit_gap_weight > 0`): the view's planes
+    /// scored with the sweep's measure and neighbours. Without neighbours they stay empty.
+    pub fn with_plane_costs(
+        mut self,
+        scene: &Scene,
+        images: &[ImageF32],
+        view_index: usize,
+        axes: &[Vector3<f64>],
+        planes: &[Plane],
+        cfg: &NonplanarConfig,
+    ) -> Result<Self, PlanemapError> {
+        self.best_plane_cost = Vec::new();
+        if cfg.fit_gap_weight.is_nan() || cfg.fit_gap_weight <= 0.0 || planes.is_empty() {
+            return Ok(self);
+        }
+        let sweep_cfg = cfg.sweep_config();
+        let Ok(setup) = sweep_setup(scene, view_index, axes, &sweep_cfg) else {
+            return Ok(self);
+        };
+        let image = &images[view_index];
+        let n = image.width as usize * image.height as usize;
+        let pairs = setup.pairs(scene, images);
+        let view = &scene.views[view_index];
+        let volume = plane_cost_volume(view, image, &pairs, planes, &sweep_cfg.sweep.photo)
+            .map_err(photo_err)?;
+        self.best_plane_cost = (0..n)
+            .map(|p| volume.pixel_costs(p).iter().copied().fold(1.0f32, f32::min))
+            .collect();
+        Ok(self)
     }
 
     /// The fit-gap cost of the plane labels at pixel `p` ([`NonplanarConfig::fit_gap_weight`]);
@@ -409,6 +490,112 @@ impl ExtendedEnergy<'_> {
     }
 }
 
+/// How many other views confirm each pixel's sweep depth in view `view_index`
+/// ([`NonplanarConfig::consistent_views`]). `sweep_depths[j]` is view `j`'s sweep depth
+/// (camera z per pixel, row-major, 0 = none) or `None` where unknown; views without one
+/// neither confirm nor get counts (all 0). Pixel `p` with depth `z` is back-projected
+/// through its centre, projected into each other view `j`, and counted when the pixel it
+/// lands in holds a depth within `tolerance · z_j` of the point's depth `z_j` there. Pixels
+/// without a depth, and those within `edge_px` (Chebyshev) of a depth jump of more than 5 %
+/// between 4-neighbours of view `view_index`'s map, get 0.
+pub fn sweep_confirmations(
+    scene: &Scene,
+    view_index: usize,
+    sweep_depths: &[Option<&[f32]>],
+    tolerance: f64,
+    edge_px: usize,
+) -> Vec<u16> {
+    let view = &scene.views[view_index];
+    let (w, h) = (view.camera.width as usize, view.camera.height as usize);
+    let Some(Some(depth)) = sweep_depths.get(view_index) else {
+        return vec![0; w * h];
+    };
+    if depth.len() != w * h {
+        return vec![0; w * h];
+    }
+    // Depth jumps, then every pixel within edge_px of one.
+    let jump = |a: f32, b: f32| a > 0.0 && b > 0.0 && (a - b).abs() > 0.05 * a.min(b);
+    let mut edge = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let p = y * w + x;
+            if x + 1 < w && jump(depth[p], depth[p + 1]) {
+                edge[p] = true;
+                edge[p + 1] = true;
+            }
+            if y + 1 < h && jump(depth[p], depth[p + w]) {
+                edge[p] = true;
+                edge[p + w] = true;
+            }
+        }
+    }
+    let near_edge = dilate(&edge, w, h, edge_px);
+    let others: Vec<(&crate::scene::View, &[f32])> = sweep_depths
+        .iter()
+        .enumerate()
+        .filter(|&(j, d)| j != view_index && d.is_some())
+        .filter_map(|(j, d)| {
+            let v = scene.views.get(j)?;
+            let d = (*d)?;
+            (d.len() == v.camera.width as usize * v.camera.height as usize).then_some((v, d))
+        })
+        .collect();
+    let (origin, _) = view.ray(&nalgebra::Vector2::new(0.5, 0.5));
+    let mut counts = vec![0u16; w * h];
+    counts
+        .par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, c) in row.iter_mut().enumerate() {
+                let p = y * w + x;
+                let z = depth[p];
+                if z.is_nan() || z <= 0.0 || near_edge[p] {
+                    continue;
+                }
+                let (_, dir) = view.ray(&nalgebra::Vector2::new(x as f64 + 0.5, y as f64 + 0.5));
+                let point = origin + dir * z as f64;
+                let mut n = 0u16;
+                for (other, d) in &others {
+                    let Some((xy, zj)) = other.project(&point) else {
+                        continue;
+                    };
+                    if zj.is_nan() || zj <= 0.0 || !other.camera.contains(&xy) {
+                        continue;
+                    }
+                    let q = xy.y as usize * other.camera.width as usize + xy.x as usize;
+                    let dj = d[q] as f64;
+                    if dj > 0.0 && (dj - zj).abs() <= tolerance * zj {
+                        n += 1;
+                    }
+                }
+                *c = n;
+            }
+        });
+    counts
+}
+
+/// `mask` grown by `radius` pixels (a (2r+1)² square), separably.
+fn dilate(mask: &[bool], w: usize, h: usize, radius: usize) -> Vec<bool> {
+    if radius == 0 {
+        return mask.to_vec();
+    }
+    let mut rows = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (a, b) = (x.saturating_sub(radius), (x + radius).min(w - 1));
+            rows[y * w + x] = mask[y * w + a..=y * w + b].iter().any(|&m| m);
+        }
+    }
+    let mut out = vec![false; w * h];
+    for y in 0..h {
+        let (a, b) = (y.saturating_sub(radius), (y + radius).min(h - 1));
+        for x in 0..w {
+            out[y * w + x] = (a..=b).any(|yy| rows[yy * w + x]);
+        }
+    }
+    out
+}
+
 /// Camera-frame unit normals of a depth map from its gradient (central differences where both
 /// neighbours have depth, else one-sided), facing the camera; `[0; 3]` where none.
 pub fn normals_from_depth(
@@ -454,8 +641,110 @@ pub fn normals_from_depth(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// Exact depth maps of the corner scene's three views (0 where a ray misses the faces).
+    pub(crate) fn corner_depths() -> (Scene, Vec<Vec<f32>>) {
+        use crate::planemap::testutil::{cast, corner_views};
+        let views = corner_views();
+        let depths = views
+            .iter()
+            .map(|v| {
+                let (w, h) = (v.camera.width, v.camera.height);
+                (0..w * h)
+                    .map(|p| {
+                        let xy = nalgebra::Vector2::new((p % w) as f64 + 0.5, (p / w) as f64 + 0.5);
+                        let (o, d) = v.ray(&xy);
+                        cast(&o, &d)
+                            .map_or(0.0, |(_, x)| v.project(&x).map_or(0.0, |(_, z)| z as f32))
+                    })
+                    .collect()
+            })
+            .collect();
+        let scene = Scene {
+            views,
+            cloud: Default::default(),
+        };
+        (scene, depths)
+    }
+
+    #[test]
+    fn sweep_depths_are_confirmed_by_the_views_that_agree() {
+        let (scene, depths) = corner_depths();
+        let all: Vec<Option<&[f32]>> = depths.iter().map(|d| Some(d.as_slice())).collect();
+        let counts = sweep_confirmations(&scene, 0, &all, 0.01, 2);
+        let with_depth = depths[0].iter().filter(|&&z| z > 0.0).count();
+        let both = counts.iter().filter(|&&c| c == 2).count();
+        // Most of the corner is seen by both other views; nothing counts more than 2 or
+        // where view 0 has no depth.
+        assert!(both * 10 > with_depth * 6, "{both} of {with_depth}");
+        assert!(counts.iter().all(|&c| c <= 2));
+        assert!(depths[0]
+            .iter()
+            .zip(&counts)
+            .all(|(&z, &c)| z > 0.0 || c == 0));
+        // View 1's depths 3 % too far: only view 2 confirms.
+        let far: Vec<f32> = depths[1].iter().map(|&z| z * 1.03).collect();
+        let some: Vec<Option<&[f32]>> = vec![Some(&depths[0]), Some(&far), Some(&depths[2])];
+        let c = sweep_confirmations(&scene, 0, &some, 0.01, 2);
+        assert!(c.iter().all(|&n| n <= 1));
+        assert_eq!(
+            c.iter().filter(|&&n| n == 1).count(),
+            sweep_confirmations(
+                &scene,
+                0,
+                &[Some(&depths[0]), None, Some(&depths[2])],
+                0.01,
+                2
+            )
+            .iter()
+            .filter(|&&n| n == 1)
+            .count()
+        );
+        // No depth of its own, or a view index without one: no counts.
+        let none: Vec<Option<&[f32]>> = vec![None, Some(&depths[1]), Some(&depths[2])];
+        assert!(sweep_confirmations(&scene, 0, &none, 0.01, 2)
+            .iter()
+            .all(|&n| n == 0));
+    }
+
+    #[test]
+    fn pixels_near_a_depth_jump_are_not_confirmed() {
+        let (scene, depths) = corner_depths();
+        let w = scene.views[0].camera.width as usize;
+        // A foreground strip: columns 60..80 of view 0 at 0.8× their depth.
+        let mut d0 = depths[0].clone();
+        for (p, z) in d0.iter_mut().enumerate() {
+            if (60..80).contains(&(p % w)) {
+                *z *= 0.8;
+            }
+        }
+        let all: Vec<Option<&[f32]>> = vec![Some(&d0), Some(&depths[1]), Some(&depths[2])];
+        let exact: Vec<Option<&[f32]>> = depths.iter().map(|d| Some(d.as_slice())).collect();
+        for edge_px in [0usize, 2, 4] {
+            let c = sweep_confirmations(&scene, 0, &all, 0.01, edge_px);
+            let reference = sweep_confirmations(&scene, 0, &exact, 0.01, 0);
+            for (p, (&n, &r)) in c.iter().zip(&reference).enumerate() {
+                let x = p % w;
+                // Distance in columns to the nearest jump (between 59|60 and 79|80).
+                let dist = [
+                    x.abs_diff(59).min(x.abs_diff(60)),
+                    x.abs_diff(79).min(x.abs_diff(80)),
+                ]
+                .into_iter()
+                .min()
+                .unwrap();
+                if (60..80).contains(&x) {
+                    assert_eq!(n, 0, "the strip's false depth is confirmed at {p}");
+                } else if dist <= edge_px && depths[0][p] > 0.0 {
+                    assert_eq!(n, 0, "x = {x} is within {edge_px} px of the jump");
+                } else if dist > edge_px + 1 {
+                    assert_eq!(n, r, "x = {x}: the jump changed a count far from it");
+                }
+            }
+        }
+    }
 
     #[test]
     fn normals_of_a_fronto_parallel_and_a_slanted_plane() {
@@ -524,6 +813,7 @@ mod tests {
             energy,
             NonplanarView {
                 planarity,
+                textured_depth: depth.clone(),
                 depth,
                 cost,
                 best_plane_cost: Vec::new(),
@@ -709,6 +999,17 @@ mod tests {
         };
         assert!(c.validate().is_ok());
         assert_eq!(c.sweep_config().sweep.photo.support_sigma_color, 0.15);
+        for tol in [0.0, 1.0, f64::NAN] {
+            let c = NonplanarConfig {
+                consistency_tolerance: tol,
+                ..Default::default()
+            };
+            assert!(c
+                .validate()
+                .unwrap_err()
+                .to_string()
+                .contains("nonplanar.consistency_tolerance"));
+        }
         let c = NonplanarConfig {
             min_confidence: 1.5,
             ..Default::default()
