@@ -485,8 +485,9 @@ pub struct ViewPlanemap {
     pub seconds: (f64, f64),
     /// The classifier's `P(planar)` map, when the non-planar label was used.
     pub planarity: Option<PlanarityMap>,
-    /// The non-planar label's sweep depth on textured pixels (camera z, 0 elsewhere:
-    /// [`NonplanarView::textured_depth`]), when the label was used; written to
+    /// The non-planar label's sweep depth where the multi-view confirmation may adopt it
+    /// (camera z, 0 elsewhere: [`NonplanarView::confirmable_depth`]), when the label was
+    /// used; written to
     /// `sweep/NAME.pfm` and reloaded by `--resume`, since the multi-view confirmation
     /// ([`confirm_nonplanar`]) needs every view's.
     pub sweep_depth: Option<Vec<f32>>,
@@ -726,7 +727,7 @@ pub fn label_view(
         cycles: solution.cycles.len(),
         seconds: (t_build, t_solve),
         planarity: Some(x.evidence.planarity.clone()),
-        sweep_depth: Some(x.evidence.textured_depth.clone()),
+        sweep_depth: Some(x.evidence.confirmable_depth()),
     })
 }
 

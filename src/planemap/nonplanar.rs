@@ -82,7 +82,9 @@ pub struct NonplanarConfig {
     /// into them, lands on a pixel whose sweep depth agrees within
     /// `consistency_tolerance`) becomes non-planar with that depth wherever its label's
     /// depth differs by more than the tolerance — a surface several views agree on that no
-    /// plane explains. 0 turns it off. See [`sweep_confirmations`].
+    /// plane explains. Only textured pixels where no plane label fits the images as well as
+    /// the sweep take part ([`NonplanarView::confirmable_depth`]). 0 turns it off. See
+    /// [`sweep_confirmations`].
     pub consistent_views: usize,
     /// Relative depth tolerance of that confirmation and of "differs".
     pub consistency_tolerance: f64,
@@ -329,6 +331,25 @@ impl NonplanarView {
             .map(|p| volume.pixel_costs(p).iter().copied().fold(1.0f32, f32::min))
             .collect();
         Ok(self)
+    }
+
+    /// The depths the multi-view confirmation may adopt: [`Self::textured_depth`] where no
+    /// plane label fits the images as well as the sweep's depth (the view's best plane costs
+    /// more than the sweep's winner under the same measure; everywhere when the plane costs
+    /// were not computed), 0 elsewhere. Where some plane fits as well, a confirmed sweep depth
+    /// that differs from the labelled plane is more likely the sweep's own bias — every view
+    /// sweeps the same plane families, so a step off is the same 3D plane in all of them —
+    /// than a surface no plane explains.
+    pub fn confirmable_depth(&self) -> Vec<f32> {
+        if self.best_plane_cost.len() != self.textured_depth.len() {
+            return self.textured_depth.clone();
+        }
+        self.textured_depth
+            .iter()
+            .zip(&self.cost)
+            .zip(&self.best_plane_cost)
+            .map(|((&z, &c), &b)| if b > c { z } else { 0.0 })
+            .collect()
     }
 
     /// The fit-gap cost of the plane labels at pixel `p` ([`NonplanarConfig::fit_gap_weight`]);
@@ -667,6 +688,28 @@ pub(crate) mod tests {
             cloud: Default::default(),
         };
         (scene, depths)
+    }
+
+    #[test]
+    fn only_depths_no_plane_fits_as_well_are_confirmable() {
+        let (_, ev) = extended();
+        let n = ev.cost.len();
+        let textured: Vec<f32> = (0..n).map(|p| if p % 5 == 0 { 0.0 } else { 2.0 }).collect();
+        let ev = NonplanarView {
+            textured_depth: textured.clone(),
+            ..ev
+        };
+        // No plane costs computed (fit gap off): every textured depth.
+        assert_eq!(ev.confirmable_depth(), textured);
+        // Sweep cost 0.25: kept where the best plane costs more, dropped where as little.
+        let with_planes = NonplanarView {
+            best_plane_cost: (0..n).map(|p| [0.35, 0.25, 0.15][p % 3]).collect(),
+            ..ev
+        };
+        for (p, &z) in with_planes.confirmable_depth().iter().enumerate() {
+            let expect = if p % 3 == 0 { textured[p] } else { 0.0 };
+            assert_eq!(z, expect, "pixel {p}");
+        }
     }
 
     #[test]
