@@ -74,6 +74,25 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
+/// Every file under `a` has an identical twin under `b` (summary.json, with its timings,
+/// aside), and nothing else is there.
+fn assert_same_files(a: &Path, b: &Path, when: &str) {
+    let (fa, fb) = (files_under(a), files_under(b));
+    let rel = |f: &[PathBuf], root: &Path| -> Vec<PathBuf> {
+        f.iter()
+            .map(|p| p.strip_prefix(root).unwrap().to_path_buf())
+            .collect()
+    };
+    assert_eq!(rel(&fa, a), rel(&fb, b), "different files {when}");
+    for (x, y) in fa.iter().zip(&fb) {
+        assert!(
+            std::fs::read(x).unwrap() == std::fs::read(y).unwrap(),
+            "{} differs {when}",
+            y.display()
+        );
+    }
+}
+
 /// (within `tol` relative, total) over ground-truth non-planar pixels with a surface, all
 /// views.
 fn nonplanar_accuracy(ws: &Path, out: &Path, tol: f32) -> (usize, usize) {
@@ -126,27 +145,10 @@ fn nonplanar_label_end_to_end() {
     run(&ws, &unconfirmed, true, 0, "2", &[]);
 
     // Deterministic whatever the thread count, planarity maps included.
-    let (a, b) = (files_under(&on1), files_under(&on2));
-    assert_eq!(a.len(), b.len());
-    for (fa, fb) in a.iter().zip(&b) {
-        assert!(
-            std::fs::read(fa).unwrap() == std::fs::read(fb).unwrap(),
-            "{} differs between 1 and 2 threads",
-            fa.display()
-        );
-    }
-
+    assert_same_files(&on1, &on2, "between 1 and 2 threads");
     // --resume reloads every view (its sweep depth too) and confirms again: the same bytes.
     run(&ws, &on2, true, 2, "2", &["--resume"]);
-    let c = files_under(&on2);
-    assert_eq!(a.len(), c.len());
-    for (fa, fc) in a.iter().zip(&c) {
-        assert!(
-            std::fs::read(fa).unwrap() == std::fs::read(fc).unwrap(),
-            "{} differs after --resume",
-            fc.display()
-        );
-    }
+    assert_same_files(&on1, &on2, "after --resume");
 
     // One 8-bit planarity map per view, image-sized; none without the classifier.
     let maps = files_under(&on1.join("planarity"));
