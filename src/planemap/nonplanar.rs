@@ -20,6 +20,11 @@
 //! The label is infeasible where the sweep found no depth. Outputs: the sweep depth at
 //! non-planar pixels, normals from the depth map's gradient, label [`NONPLANAR`] (written as 0
 //! in the 16-bit planemap PNG, like "no plane").
+//!
+//! After every view is labelled, a multi-view confirmation ([`sweep_confirmations`],
+//! `crate::pipeline::confirm_nonplanar`) also makes non-planar the textured pixels whose
+//! sweep depth [`NonplanarConfig::consistent_views`] other views agree with and that no plane
+//! fits as well — what the classifier misses on grey stone.
 
 use std::path::PathBuf;
 
