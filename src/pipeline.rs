@@ -1088,6 +1088,18 @@ pub fn confirm_nonplanar(
         .collect()
 }
 
+/// `OUT/stereo/KIND/IMAGE.geometric.bin` (KIND `depth_maps` or `normal_maps`), IMAGE the
+/// view's image file name, as COLMAP's `stereo_fusion` reads them.
+fn dense_map_path(out: &Path, kind: &str, view_name: &str) -> PathBuf {
+    let name = Path::new(view_name)
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| view_name.to_string());
+    out.join("stereo")
+        .join(kind)
+        .join(format!("{name}.geometric.bin"))
+}
+
 /// Where the non-planar label's sweep depth maps go (PFM, camera z, 0 = none).
 pub const SWEEP_DIR: &str = "sweep";
 
@@ -1161,26 +1173,14 @@ pub fn write_view_outputs(
         };
         write_pfm_path(&dir.join(format!("{stem}.pfm")), &map)?;
     }
-    let name = Path::new(&view.name)
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| view.name.clone());
-    write_dense_map_path(
-        &out.join("stereo/depth_maps")
-            .join(format!("{name}.geometric.bin")),
-        &depth,
-    )?;
+    write_dense_map_path(&dense_map_path(out, "depth_maps", &view.name), &depth)?;
     let normals = ImageF32 {
         width: w,
         height: h,
         channels: 3,
         data: result.normals.iter().flatten().copied().collect(),
     };
-    write_dense_map_path(
-        &out.join("stereo/normal_maps")
-            .join(format!("{name}.geometric.bin")),
-        &normals,
-    )?;
+    write_dense_map_path(&dense_map_path(out, "normal_maps", &view.name), &normals)?;
     // The label map last: its presence marks the view complete for --resume.
     write_label_png(
         &out.join("planemaps").join(format!("{stem}.png")),
@@ -1228,42 +1228,16 @@ fn load_view_outputs(
     {
         return None;
     }
-    // The normals written to the COLMAP normal map, exactly as labelled (planes' normals
-    // facing the camera, non-planar pixels' from the sweep's depth map); if that file is
-    // unreadable, the planes' normals and, where label 0 has a depth (a non-planar pixel),
-    // the depth map's gradient.
-    let name = Path::new(&view.name)
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| view.name.clone());
-    let saved = crate::io::dense::read_normal_map_path(
-        &out.join("stereo/normal_maps")
-            .join(format!("{name}.geometric.bin")),
-    )
-    .ok()
-    .filter(|n| (n.width, n.height, n.channels) == (w, h, 3));
-    let normals: Vec<[f32; 3]> = match saved {
-        Some(n) => n.data.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-        None => {
-            let ray = |x: usize, y: usize| {
-                view.camera
-                    .unproject(&Vector2::new(x as f64 + 0.5, y as f64 + 0.5))
-            };
-            let sweep_normals = normals_from_depth(&depth.data, w as usize, h as usize, ray);
-            ids.iter()
-                .zip(&depth.data)
-                .zip(&sweep_normals)
-                .map(|((&id, &z), n_np)| {
-                    if id == 0 {
-                        return if z > 0.0 { *n_np } else { [0.0; 3] };
-                    }
-                    let n = view.cam_from_world.rotation
-                        * prepared.hypotheses[id as usize - 1].plane.normal;
-                    [n.x as f32, n.y as f32, n.z as f32]
-                })
-                .collect()
-        }
-    };
+    // The normals exactly as labelled (planes' facing the camera, non-planar pixels' from
+    // the sweep's depth map): the COLMAP normal map, written before the label map.
+    let normals =
+        crate::io::dense::read_normal_map_path(&dense_map_path(out, "normal_maps", &view.name))
+            .ok()
+            .filter(|n| (n.width, n.height, n.channels) == (w, h, 3))?
+            .data
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
     Some(ViewPlanemap {
         view_index,
         width: w,
