@@ -4,7 +4,7 @@
 //!
 //! ```sh
 //! cargo run --release --example sweep_audit -- WORKSPACE [VIEW ...] [--set key=value ...] \
-//!     [--nonplanar] [--pixel X,Y]
+//!     [--nonplanar] [--pixel X,Y] [--families]
 //! ```
 //!
 //! Per view it prints:
@@ -24,7 +24,8 @@
 //! `--nonplanar` audits the sweep of the non-planar label (`NonplanarConfig::sweep_config`)
 //! instead of the baseline's; `--set` overrides either (keys as in `planemap sweep --set`).
 //! `--pixel X,Y` adds, for that pixel, the truth's and the winner's cost per neighbour,
-//! aggregated and raw.
+//! aggregated and raw. `--families` prints the plane families (count, step, first and last
+//! plane) and skips the sweep.
 
 use std::path::PathBuf;
 
@@ -44,7 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let Some(ws) = args.next().map(PathBuf::from) else {
         eprintln!(
-            "usage: sweep_audit WORKSPACE [VIEW ...] [--set key=value ...] [--nonplanar] [--pixel X,Y]"
+            "usage: sweep_audit WORKSPACE [VIEW ...] [--set key=value ...] [--nonplanar] [--pixel X,Y] [--families]"
         );
         std::process::exit(2);
     };
@@ -52,10 +53,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut overrides = Vec::new();
     let mut probe: Option<(usize, usize)> = None;
     let mut nonplanar = false;
+    let mut families_only = false;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--set" => overrides.push(args.next().ok_or("--set needs key=value")?),
             "--nonplanar" => nonplanar = true,
+            "--families" => families_only = true,
             "--pixel" => {
                 let v = args.next().ok_or("--pixel needs X,Y")?;
                 let (x, y) = v.split_once(',').ok_or("--pixel needs X,Y")?;
@@ -101,12 +104,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (f, fam) in setup.families.iter().enumerate() {
             let q = |x| family_step_px(view, &nbr_views, &fam.planes, x).unwrap_or(f64::NAN);
             println!(
-                "  family {f}: {} planes, step (px) median {:.2}, 90% {:.2}, max {:.1}",
+                "  family {f}: {} planes, step (px) median {:.2}, 90% {:.2}, max {:.1}; first n = [{:.3}, {:.3}, {:.3}] d = {:.3}, last n = [{:.3}, {:.3}, {:.3}] d = {:.3}",
                 fam.planes.len(),
                 q(0.5),
                 q(0.9),
-                q(1.0)
+                q(1.0),
+                fam.planes[0].normal.x,
+                fam.planes[0].normal.y,
+                fam.planes[0].normal.z,
+                fam.planes[0].offset,
+                fam.planes[fam.planes.len() - 1].normal.x,
+                fam.planes[fam.planes.len() - 1].normal.y,
+                fam.planes[fam.planes.len() - 1].normal.z,
+                fam.planes[fam.planes.len() - 1].offset,
             );
+        }
+        if families_only {
+            continue;
         }
         let swept = multi_family_sweep(
             view,
