@@ -737,7 +737,7 @@ pub(crate) mod tests {
         assert_eq!(cfg.label_depth(f32::NAN, 0.5, 0.0), 0.0);
         // 0 turns the exception off.
         let off = NonplanarConfig {
-            sure_nonplanar_below: 0.3,
+            sure_nonplanar_below: 0.0,
             ..cfg.clone()
         };
         assert_eq!(off.label_depth(2.0, 0.05, 0.0), 0.0);
