@@ -103,20 +103,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("{}:", view.name);
         for (f, fam) in setup.families.iter().enumerate() {
             let q = |x| family_step_px(view, &nbr_views, &fam.planes, x).unwrap_or(f64::NAN);
+            let (first, last) = (&fam.planes[0], &fam.planes[fam.planes.len() - 1]);
             println!(
                 "  family {f}: {} planes, step (px) median {:.2}, 90% {:.2}, max {:.1}; first n = [{:.3}, {:.3}, {:.3}] d = {:.3}, last n = [{:.3}, {:.3}, {:.3}] d = {:.3}",
                 fam.planes.len(),
                 q(0.5),
                 q(0.9),
                 q(1.0),
-                fam.planes[0].normal.x,
-                fam.planes[0].normal.y,
-                fam.planes[0].normal.z,
-                fam.planes[0].offset,
-                fam.planes[fam.planes.len() - 1].normal.x,
-                fam.planes[fam.planes.len() - 1].normal.y,
-                fam.planes[fam.planes.len() - 1].normal.z,
-                fam.planes[fam.planes.len() - 1].offset,
+                first.normal.x,
+                first.normal.y,
+                first.normal.z,
+                first.offset,
+                last.normal.x,
+                last.normal.y,
+                last.normal.z,
+                last.offset,
             );
         }
         if families_only {

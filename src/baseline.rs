@@ -53,8 +53,9 @@ pub struct SweepBaselineConfig {
     /// Planes per axis family, evenly spaced in offset.
     pub axis_planes: usize,
     /// An axis family spans the range along the axis of the sparse points inside the view's
-    /// frustum (all but the `axis_trim_points` most extreme at each end), widened by this fraction of that
-    /// range on each side, and clipped to the frustum between the near and far depths.
+    /// frustum (all but the `axis_trim_points` most extreme at each end), widened by this
+    /// fraction of that range on each side, and clipped to the frustum between the near and
+    /// far depths.
     pub axis_margin: f64,
     /// Sparse points left out at each end of an axis family's range (isolated SfM
     /// outliers). A count, not a quantile: a floor or table top seen at a grazing angle may
@@ -584,6 +585,11 @@ mod tests {
     /// `scenes/NAME.toml` rendered at its own size and read back from its COLMAP model on
     /// disk, as `planemap sweep` reads it.
     fn scene_through_colmap(name: &str) -> Scene {
+        scene_through_colmap_with(name, &Default::default())
+    }
+
+    /// [`scene_through_colmap`] rendered with `opts` (another size, say).
+    fn scene_through_colmap_with(name: &str, opts: &crate::synth::RenderOptions) -> Scene {
         let spec = crate::synth::SceneSpec::from_path(
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.toml")),
         )
@@ -591,7 +597,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         crate::workspace::render_to_workspace(
             &spec,
-            &Default::default(),
+            opts,
             dir.path(),
             &crate::progress::Progress::new(true),
         )
@@ -635,27 +641,14 @@ mod tests {
         // within 1 %: 61.5 %); even all but two of view 1's own points span only z = 0.10
         // to 1.99. The range of every point in the frustum, less two at each end, covers
         // the floor in every view.
-        let spec = crate::synth::SceneSpec::from_path(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/tiny.toml"),
-        )
-        .unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let opts = crate::synth::RenderOptions {
-            width: Some(320),
-            height: Some(240),
-            seed_override: None,
-        };
-        crate::workspace::render_to_workspace(
-            &spec,
-            &opts,
-            dir.path(),
-            &crate::progress::Progress::new(true),
-        )
-        .unwrap();
-        let scene = crate::io::colmap::read_model(&dir.path().join("sparse"))
-            .unwrap()
-            .to_scene(None)
-            .unwrap();
+        let scene = scene_through_colmap_with(
+            "tiny",
+            &crate::synth::RenderOptions {
+                width: Some(320),
+                height: Some(240),
+                seed_override: None,
+            },
+        );
         let cfg = SweepBaselineConfig::default();
         let axes = scene_axes(&scene, &cfg);
         for v in 0..scene.views.len() {
@@ -664,17 +657,13 @@ mod tests {
                 .iter()
                 .find(|f| f.planes[0].normal.z.abs() > 0.99)
                 .unwrap_or_else(|| panic!("view {v}: no horizontal family"));
-            // Offsets along ±z; the plane z = h has offset ±h.
-            let heights: Vec<f64> = vertical
-                .planes
-                .iter()
-                .map(|p| p.offset * p.normal.z.signum())
-                .collect();
-            let (lo, hi) = heights
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &h| {
-                    (a.min(h), b.max(h))
-                });
+            // Offsets along ±z, in sweep order; the plane z = h has offset ±h.
+            let height = |p: &Plane| p.offset * p.normal.z.signum();
+            let (a, b) = (
+                height(&vertical.planes[0]),
+                height(&vertical.planes[vertical.planes.len() - 1]),
+            );
+            let (lo, hi) = (a.min(b), a.max(b));
             assert!(
                 lo < -0.01 && hi > 0.76,
                 "view {v}: heights {lo:.3}..{hi:.3}"
