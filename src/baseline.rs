@@ -53,22 +53,26 @@ pub struct SweepBaselineConfig {
     /// Planes per axis family, evenly spaced in offset.
     pub axis_planes: usize,
     /// An axis family spans the range along the axis of the sparse points inside the view's
-    /// frustum (all but the `axis_trim_points` most extreme at each end), widened by this
-    /// fraction of that range on each side, and clipped to the frustum between the near and
-    /// far depths.
+    /// frustum between the near and far depths of its own points (all but the
+    /// `range_trim_points` most extreme at each end), widened by this fraction of that range
+    /// on each side, and clipped to the frustum between the near and far depths.
     pub axis_margin: f64,
-    /// Sparse points left out at each end of an axis family's range (isolated SfM
-    /// outliers). A count, not a quantile: a floor or table top seen at a grazing angle may
-    /// hold under 2 % of a view's points, and a range cut at the 2nd percentile left such
-    /// surfaces unswept (tiny: 61.5 % of textured surfaces within 1 %, 95.3 % without the
-    /// cut).
-    pub axis_trim_points: usize,
+    /// Sparse points left out at each end of a range read from the points in the view's
+    /// image, whichever views tracked them (isolated SfM outliers): the depth range and each
+    /// axis family's range. A count, not a quantile: a floor or table top seen at a grazing
+    /// angle may hold under 2 % of a view's points, and a range cut at the 2nd percentile
+    /// left such surfaces unswept (tiny: 61.5 % of textured surfaces within 1 %, 95.3 %
+    /// without the cut).
+    pub range_trim_points: usize,
     /// Neighbour views per reference view ([`select_neighbours`]); the cost combines the
     /// best `sweep.photo.best_k` of those that see the window. 8 rather than 4: on walks
     /// (forward motion) and orbits many pixels are seen by only a few of them.
     pub neighbours: usize,
-    /// The depth range is [near · p2, far · p98] of the view's sparse point depths:
-    /// `near_factor` …
+    /// The depth range is [near · z_lo, far · z_hi]: z_lo is the smaller of the 2nd
+    /// percentile of the depths of the view's own sparse points and the depth of the
+    /// (`range_trim_points` + 1)-th nearest sparse point in its image, whichever views
+    /// tracked it; z_hi likewise at the far end. The view's own points alone miss a pillar
+    /// next to the camera or a far gable that other views tracked. `near_factor` …
     pub near_factor: f64,
     /// … and `far_factor`.
     pub far_factor: f64,
@@ -103,7 +107,7 @@ impl Default for SweepBaselineConfig {
             axis_families: true,
             axis_planes: 128,
             axis_margin: 0.1,
-            axis_trim_points: 2,
+            range_trim_points: 2,
             neighbours: 8,
             near_factor: 0.8,
             far_factor: 1.25,
@@ -340,8 +344,32 @@ pub fn sweep_setup(
         return Err(BaselineError::NoPoints(view.name.clone()));
     }
     depths.sort_by(f64::total_cmp);
-    let near = percentile(&depths, 0.02) * cfg.near_factor;
-    let far = (percentile(&depths, 0.98) * cfg.far_factor).max(near * 1.01);
+    // Every sparse point in the image, whichever views tracked it: a pillar beside the
+    // camera or a distant gable may hold under 2 % of the view's own points, or none.
+    let mut in_image: Vec<f64> = scene
+        .cloud
+        .positions
+        .iter()
+        .filter_map(|p| view.project(p))
+        .filter(|&(uv, z)| z > 0.0 && view.camera.contains(&uv))
+        .map(|(_, z)| z)
+        .collect();
+    in_image.sort_by(f64::total_cmp);
+    let trim = cfg
+        .range_trim_points
+        .min(in_image.len().saturating_sub(1) / 2);
+    let (own_lo, own_hi) = (percentile(&depths, 0.02), percentile(&depths, 0.98));
+    let (mut z_lo, mut z_hi) = (own_lo, own_hi);
+    if let (Some(lo), Some(hi)) = (in_image.get(trim), in_image.len().checked_sub(1 + trim)) {
+        z_lo = z_lo.min(*lo);
+        z_hi = z_hi.max(in_image[hi]);
+    }
+    let near = z_lo * cfg.near_factor;
+    let far = (z_hi * cfg.far_factor).max(near * 1.01);
+    // The view's own points' depth range, which the axis families' range points are taken
+    // from (below).
+    let own_near = own_lo * cfg.near_factor;
+    let own_far = (own_hi * cfg.far_factor).max(own_near * 1.01);
     let neighbours = select_neighbours(scene, index, cfg.neighbours).map_err(photo_err)?;
     if neighbours.is_empty() {
         return Err(photo_err(PhotoError::InvalidInput(
@@ -369,15 +397,18 @@ pub fn sweep_setup(
         spacing: Spacing::InverseDepth,
     }];
     // The points an axis family's range is read from: every sparse point inside the view's
-    // frustum between the near and far depths, whichever views tracked it — a floor seen
-    // at a grazing angle may hold only one or two of the view's own points.
+    // frustum between the near and far depths of its own points, whichever views tracked
+    // it — a floor seen at a grazing angle may hold only one or two of the view's own
+    // points. Not the widened depth range: on gable views 10–12 the ground beside the
+    // camera (3 m, against 7.6 m from the view's own points) stretched every family, its
+    // planes grew twice as far apart and view 11 fell from 99.4 to 83.7 %.
     let in_frustum: Vec<Vector3<f64>> = scene
         .cloud
         .positions
         .iter()
         .filter(|p| {
             view.project(p)
-                .is_some_and(|(uv, z)| z >= near && z <= far && view.camera.contains(&uv))
+                .is_some_and(|(uv, z)| z >= own_near && z <= own_far && view.camera.contains(&uv))
         })
         .copied()
         .collect();
@@ -394,7 +425,7 @@ pub fn sweep_setup(
             let u = frustum[0].normal;
             let mut along: Vec<f64> = range_points.iter().map(|p| u.dot(p)).collect();
             along.sort_by(f64::total_cmp);
-            let trim = cfg.axis_trim_points.min((along.len() - 1) / 2);
+            let trim = cfg.range_trim_points.min((along.len() - 1) / 2);
             let (p_lo, p_hi) = (along[trim], along[along.len() - 1 - trim]);
             let pad = cfg.axis_margin * (p_hi - p_lo);
             let (lo, hi) = ((p_lo - pad).max(f_lo), (p_hi + pad).min(f_hi));
@@ -590,6 +621,15 @@ mod tests {
 
     /// [`scene_through_colmap`] rendered with `opts` (another size, say).
     fn scene_through_colmap_with(name: &str, opts: &crate::synth::RenderOptions) -> Scene {
+        workspace_through_colmap(name, opts).0
+    }
+
+    /// [`scene_through_colmap_with`], with the workspace it was read from (ground truth in
+    /// `gt/`), deleted when the second value drops.
+    fn workspace_through_colmap(
+        name: &str,
+        opts: &crate::synth::RenderOptions,
+    ) -> (Scene, tempfile::TempDir) {
         let spec = crate::synth::SceneSpec::from_path(
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.toml")),
         )
@@ -602,10 +642,11 @@ mod tests {
             &crate::progress::Progress::new(true),
         )
         .unwrap();
-        crate::io::colmap::read_model(&dir.path().join("sparse"))
+        let scene = crate::io::colmap::read_model(&dir.path().join("sparse"))
             .unwrap()
             .to_scene(None)
-            .unwrap()
+            .unwrap();
+        (scene, dir)
     }
 
     #[test]
@@ -675,6 +716,43 @@ mod tests {
         };
         let err = bad.validate().unwrap_err().to_string();
         assert!(err.contains("axis_margin"), "{err}");
+    }
+
+    #[test]
+    fn depth_range_reaches_a_pillar_beside_the_camera() {
+        // occlusion: the pillar at the left edge of views 0, 1 and 4 stands nearer than the
+        // 2nd percentile of those views' own sparse points (view 4: 1.78 m against 2.42 m),
+        // so the fronto-parallel family began behind it: 3.6 % of the scene's textured
+        // surfaces were never swept. Other views tracked points on it; with every point in
+        // the image, less two at each end, the range covers the pillar.
+        let (scene, dir) = workspace_through_colmap("occlusion", &Default::default());
+        let cfg = SweepBaselineConfig::default();
+        for (v, view) in scene.views.iter().enumerate() {
+            let setup = sweep_setup(&scene, v, &[], &cfg).unwrap();
+            let centre = view.center();
+            let depths: Vec<f64> = setup.families[0]
+                .planes
+                .iter()
+                .map(|p| p.offset - p.normal.dot(&centre))
+                .collect();
+            let (near, far) = (
+                depths[0].min(depths[depths.len() - 1]),
+                depths[0].max(depths[depths.len() - 1]),
+            );
+            let stem = std::path::Path::new(&view.name).with_extension("pfm");
+            let gt =
+                crate::io::pfm::read_pfm_path(&dir.path().join("gt/depth").join(&stem)).unwrap();
+            let seen: Vec<f32> = gt.data.iter().copied().filter(|&z| z > 0.0).collect();
+            let outside = seen
+                .iter()
+                .filter(|&&z| (z as f64) < near || (z as f64) > far)
+                .count();
+            assert!(
+                outside * 200 <= seen.len(),
+                "view {v}: {outside} of {} pixels outside the swept depths {near:.2}..{far:.2}",
+                seen.len()
+            );
+        }
     }
 
     #[test]
