@@ -346,23 +346,25 @@ pub fn sweep_setup(
     depths.sort_by(f64::total_cmp);
     // Every sparse point in the image, whichever views tracked it: a pillar beside the
     // camera or a distant gable may hold under 2 % of the view's own points, or none.
-    let mut in_image: Vec<f64> = scene
+    // Each point is projected once: (position, depth).
+    let in_image: Vec<(Vector3<f64>, f64)> = scene
         .cloud
         .positions
         .iter()
-        .filter_map(|p| view.project(p))
-        .filter(|&(uv, z)| z > 0.0 && view.camera.contains(&uv))
-        .map(|(_, z)| z)
+        .filter_map(|p| {
+            view.project(p)
+                .filter(|&(uv, z)| z > 0.0 && view.camera.contains(&uv))
+                .map(|(_, z)| (*p, z))
+        })
         .collect();
-    in_image.sort_by(f64::total_cmp);
-    let trim = cfg
-        .range_trim_points
-        .min(in_image.len().saturating_sub(1) / 2);
+    let mut image_depths: Vec<f64> = in_image.iter().map(|&(_, z)| z).collect();
+    image_depths.sort_by(f64::total_cmp);
     let (own_lo, own_hi) = (percentile(&depths, 0.02), percentile(&depths, 0.98));
     let (mut z_lo, mut z_hi) = (own_lo, own_hi);
-    if let (Some(lo), Some(hi)) = (in_image.get(trim), in_image.len().checked_sub(1 + trim)) {
-        z_lo = z_lo.min(*lo);
-        z_hi = z_hi.max(in_image[hi]);
+    if !image_depths.is_empty() {
+        let trim = cfg.range_trim_points.min((image_depths.len() - 1) / 2);
+        z_lo = z_lo.min(image_depths[trim]);
+        z_hi = z_hi.max(image_depths[image_depths.len() - 1 - trim]);
     }
     let near = z_lo * cfg.near_factor;
     let far = (z_hi * cfg.far_factor).max(near * 1.01);
@@ -402,15 +404,10 @@ pub fn sweep_setup(
     // points. Not the widened depth range: on gable views 10–12 the ground beside the
     // camera (3 m, against 7.6 m from the view's own points) stretched every family, its
     // planes grew twice as far apart and view 11 fell from 99.4 to 83.7 %.
-    let in_frustum: Vec<Vector3<f64>> = scene
-        .cloud
-        .positions
+    let in_frustum: Vec<Vector3<f64>> = in_image
         .iter()
-        .filter(|p| {
-            view.project(p)
-                .is_some_and(|(uv, z)| z >= own_near && z <= own_far && view.camera.contains(&uv))
-        })
-        .copied()
+        .filter(|&&(_, z)| z >= own_near && z <= own_far)
+        .map(|&(p, _)| p)
         .collect();
     let range_points = if in_frustum.is_empty() {
         &seen
