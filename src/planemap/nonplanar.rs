@@ -53,7 +53,8 @@ pub struct NonplanarConfig {
     /// Classifier model file (`planemap classify train`); `None` = the built-in default model.
     pub model: Option<PathBuf>,
     /// β: weight of the classifier's costs, in data-cost units (a plane label at a pixel the
-    /// classifier calls surely non-planar pays up to β·ln(1/ε) more).
+    /// classifier calls surely non-planar pays up to β·ln(1/ε) more). 0.5 since 5 Dec
+    /// (was 1), with the confirmation's K = 3 and σc = 0.15 below: papers.md has the scan.
     pub beta: f64,
     /// ε in the classifier's costs (bounds a confident mistake's cost).
     pub epsilon: f64,
@@ -67,7 +68,9 @@ pub struct NonplanarConfig {
     /// (`photo.support_sigma_color`, Yoon & Kweon 2006; 0 = the box window). 0.15 sharpens
     /// the silhouettes of trees and columns: courtyard / statues non-planar pixels within
     /// 1 % 48.7 → 49.3 / 37.2 → 38.1 %, planar 89.4 → 89.4 / 95.3 → 95.6 % (3 Dec), at about
-    /// 1.2× the sweep's time; off by default like the label itself.
+    /// 1.2× the sweep's time. On by default since 5 Dec: with K = 3 and β = 0.5 it is what
+    /// keeps the halo of a statue's depth off the facade behind it (statues at K = 3, β =
+    /// 0.5, `sure_nonplanar_below` 0.5: planar / non-planar 95.2 / 54.1 → 95.4 / 56.2 %).
     pub sweep_support_sigma_color: f32,
     /// The label is allowed only where the sweep is this confident (second-best minus best
     /// cost, [`crate::photo::SweepResult::confidence`]): where the best depth is ambiguous
@@ -97,7 +100,8 @@ pub struct NonplanarConfig {
     /// depth differs by more than the tolerance — a surface several views agree on that no
     /// plane explains. Only textured pixels where no plane label fits the images as well as
     /// the sweep take part ([`NonplanarView::confirmable_depth`]). 0 turns it off. See
-    /// [`sweep_confirmations`].
+    /// [`sweep_confirmations`]. 3 since 5 Dec (was 4): with the support weights above the
+    /// halos that made 3 cost planar pixels are narrower (papers.md).
     pub consistent_views: usize,
     /// Relative depth tolerance of that confirmation and of "differs".
     pub consistency_tolerance: f64,
@@ -112,17 +116,17 @@ impl Default for NonplanarConfig {
         NonplanarConfig {
             enabled: false,
             model: None,
-            beta: 1.0,
+            beta: 0.5,
             epsilon: 0.01,
             sweep_planes: 64,
             sweep_axis_planes: 64,
             sweep_neighbours: 4,
-            sweep_support_sigma_color: 0.0,
+            sweep_support_sigma_color: 0.15,
             min_confidence: 0.1,
             sure_nonplanar_below: 0.3,
             fit_gap_weight: 1.0,
             fit_gap_scale: 0.2,
-            consistent_views: 4,
+            consistent_views: 3,
             consistency_tolerance: 0.01,
             consistency_edge_px: 2,
         }
@@ -977,7 +981,10 @@ pub(crate) mod tests {
         let pm = PlanemapConfig::default();
         let np = add_classifier_costs(&mut energy, &ev, &cfg, &pm).unwrap();
         let l = energy.num_labels();
-        let costs = ev.planarity.unary_costs(1.0, 0.01).unwrap();
+        let costs = ev
+            .planarity
+            .unary_costs(cfg.beta as f32, cfg.epsilon as f32)
+            .unwrap();
         for p in [0, 5, 6, 1234] {
             for a in 0..l {
                 let want = before[p * l + a] + costs.planar[p];
