@@ -1029,7 +1029,9 @@ pub fn run(
 /// at least `consistent_views` other views of `views` confirm
 /// ([`crate::planemap::nonplanar::sweep_confirmations`]) and whose labelled depth differs
 /// from it by more than `consistency_tolerance` becomes non-planar with the sweep's depth
-/// (and its normal). Every count is taken from the sweep depths as they were labelled, so
+/// (and its normal); so does a pixel whose labelled depth is more than `gross_gap` off when
+/// that many views agree within `gross_tolerance`, away from depth jumps by
+/// `gross_edge_px` (the gross tier). Every count is taken from the sweep depths as they were labelled, so
 /// the result does not depend on the order of the views. Returns the pixels changed per
 /// view.
 pub fn confirm_nonplanar(
@@ -1055,12 +1057,30 @@ pub fn confirm_nonplanar(
             )
         })
         .collect();
+    // The gross tier's looser counts (empty when it is off).
+    let loose: Vec<Vec<u16>> = views
+        .iter()
+        .map(|v| {
+            if cfg.gross_gap > 0.0 {
+                crate::planemap::nonplanar::sweep_confirmations(
+                    scene,
+                    v.view_index,
+                    &sweeps,
+                    cfg.gross_tolerance,
+                    cfg.gross_edge_px,
+                )
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let gap = cfg.gross_gap as f32;
     let tol = cfg.consistency_tolerance as f32;
     let min_views = cfg.consistent_views.min(u16::MAX as usize) as u16;
     views
         .iter_mut()
-        .zip(&counts)
-        .map(|(v, count)| {
+        .zip(counts.iter().zip(&loose))
+        .map(|(v, (count, loose))| {
             let Some(sweep) = &v.sweep_depth else {
                 return 0;
             };
@@ -1074,9 +1094,13 @@ pub fn confirm_nonplanar(
             let mut changed = 0;
             for p in 0..w * h {
                 let z = sweep[p];
-                let differs =
-                    v.depth[p].is_nan() || v.depth[p] <= 0.0 || (v.depth[p] - z).abs() > tol * z;
-                if count[p] >= min_views && z > 0.0 && differs {
+                let off_by = |t: f32| {
+                    v.depth[p].is_nan() || v.depth[p] <= 0.0 || (v.depth[p] - z).abs() > t * z
+                };
+                let confirmed = count[p] >= min_views && off_by(tol);
+                let gross =
+                    gap > 0.0 && loose.get(p).is_some_and(|&n| n >= min_views) && off_by(gap);
+                if z > 0.0 && (confirmed || gross) {
                     v.depth[p] = z;
                     v.normals[p] = normals[p];
                     v.labels[p] = NONPLANAR;
@@ -1536,36 +1560,51 @@ mod tests {
     use super::*;
     use crate::planemap::nonplanar::tests::corner_depths;
 
-    #[test]
-    fn confirmed_sweep_depths_replace_the_planes_that_miss_them() {
-        let (scene, depths) = corner_depths();
-        // Every view labelled with a plane 10 % too far, except view 0's left half, which a
-        // plane gets right; the sweep has the truth everywhere.
-        let views: Vec<ViewPlanemap> = depths
+    /// Views of `scene` labelled 0 with depth `label(view, pixel, truth)` and the given
+    /// sweep depths.
+    fn labelled(
+        scene: &Scene,
+        truth: &[Vec<f32>],
+        sweeps: &[Vec<f32>],
+        label: impl Fn(usize, usize, f32) -> f32,
+    ) -> Vec<ViewPlanemap> {
+        truth
             .iter()
+            .zip(sweeps)
             .enumerate()
-            .map(|(i, d)| {
+            .map(|(i, (d, sweep))| {
                 let w = scene.views[i].camera.width as usize;
                 ViewPlanemap {
                     view_index: i,
                     width: w as u32,
                     height: (d.len() / w) as u32,
                     labels: vec![0; d.len()],
-                    depth: d
-                        .iter()
-                        .enumerate()
-                        .map(|(p, &z)| if i == 0 && p % w < w / 2 { z } else { z * 1.1 })
-                        .collect(),
+                    depth: d.iter().enumerate().map(|(p, &z)| label(i, p, z)).collect(),
                     normals: vec![[0.0, 0.0, -1.0]; d.len()],
                     candidate_labels: 1,
                     energy: (0.0, 0.0),
                     cycles: 0,
                     seconds: (0.0, 0.0),
                     planarity: None,
-                    sweep_depth: Some(d.clone()),
+                    sweep_depth: Some(sweep.clone()),
                 }
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn confirmed_sweep_depths_replace_the_planes_that_miss_them() {
+        let (scene, depths) = corner_depths();
+        // Every view labelled with a plane 10 % too far, except view 0's left half, which a
+        // plane gets right; the sweep has the truth everywhere.
+        let w = scene.views[0].camera.width as usize;
+        let views = labelled(&scene, &depths, &depths, |i, p, z| {
+            if i == 0 && p % w < w / 2 {
+                z
+            } else {
+                z * 1.1
+            }
+        });
         let cfg = NonplanarConfig {
             consistent_views: 2,
             ..Default::default()
@@ -1612,5 +1651,59 @@ mod tests {
             v.sweep_depth = None;
         }
         assert_eq!(confirm_nonplanar(&scene, &mut bare, &cfg), vec![0, 0, 0]);
+    }
+
+    #[test]
+    fn the_gross_tier_takes_loosely_confirmed_sweeps_from_planes_far_off() {
+        let (scene, depths) = corner_depths();
+        // Sweeps 2 % off the truth, view 1 nearer and the others farther: no two views
+        // that differ in sign agree within 1 %, all of them within 5 %.
+        let sweeps: Vec<Vec<f32>> = depths
+            .iter()
+            .enumerate()
+            .map(|(i, d)| {
+                let f = if i == 1 { 0.98 } else { 1.02 };
+                d.iter().map(|&z| z * f).collect()
+            })
+            .collect();
+        let cfg = NonplanarConfig {
+            consistent_views: 2,
+            ..Default::default()
+        };
+        let off = NonplanarConfig {
+            gross_gap: 0.0,
+            ..cfg.clone()
+        };
+        // Planes 30 % too far: only the gross tier changes them, to the sweep's depth.
+        let far = labelled(&scene, &depths, &sweeps, |_, _, z| z * 1.3);
+        let mut out = far.clone();
+        assert_eq!(confirm_nonplanar(&scene, &mut out, &off), vec![0, 0, 0]);
+        let changed = confirm_nonplanar(&scene, &mut out, &cfg);
+        for (i, (v, before)) in out.iter().zip(&far).enumerate() {
+            assert!(changed[i] > 1000, "view {i}: {}", changed[i]);
+            let mut n = 0;
+            for (p, &z) in sweeps[i].iter().enumerate() {
+                if v.labels[p] == NONPLANAR {
+                    assert_eq!(v.depth[p], z);
+                    n += 1;
+                } else {
+                    assert_eq!(v.depth[p], before.depth[p]);
+                }
+            }
+            assert_eq!(n, changed[i]);
+        }
+        // Planes 10 % too far are within the gap: the gross tier leaves them.
+        let mut near = labelled(&scene, &depths, &sweeps, |_, _, z| z * 1.1);
+        assert_eq!(confirm_nonplanar(&scene, &mut near, &cfg), vec![0, 0, 0]);
+        // A looser agreement than the views have is a config error, not a silent change.
+        let bad = NonplanarConfig {
+            gross_tolerance: 1.5,
+            ..cfg.clone()
+        };
+        assert!(bad
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("nonplanar.gross_tolerance"));
     }
 }
