@@ -1031,9 +1031,9 @@ pub fn run(
 /// from it by more than `consistency_tolerance` becomes non-planar with the sweep's depth
 /// (and its normal); so does a pixel whose labelled depth is more than `gross_gap` off when
 /// that many views agree within `gross_tolerance`, away from depth jumps by
-/// `gross_edge_px` (the gross tier). Every count is taken from the sweep depths as they were labelled, so
-/// the result does not depend on the order of the views. Returns the pixels changed per
-/// view.
+/// `gross_edge_px` (the gross tier). Every count is taken from the sweep depths as they were
+/// labelled, so the result does not depend on the order of the views. Returns the pixels
+/// changed per view.
 pub fn confirm_nonplanar(
     scene: &Scene,
     views: &mut [ViewPlanemap],
