@@ -1045,33 +1045,20 @@ pub fn confirm_nonplanar(
             *slot = Some(d.as_slice());
         }
     }
-    let counts: Vec<Vec<u16>> = views
+    // Per view, the strict tier's counts and (when on) the gross tier's, one projection.
+    let mut tiers = vec![(cfg.consistency_tolerance, cfg.consistency_edge_px)];
+    if cfg.gross_gap > 0.0 {
+        tiers.push((cfg.gross_tolerance, cfg.gross_edge_px));
+    }
+    let counts: Vec<Vec<Vec<u16>>> = views
         .iter()
         .map(|v| {
-            crate::planemap::nonplanar::sweep_confirmations(
+            crate::planemap::nonplanar::sweep_confirmation_tiers(
                 scene,
                 v.view_index,
                 &sweeps,
-                cfg.consistency_tolerance,
-                cfg.consistency_edge_px,
+                &tiers,
             )
-        })
-        .collect();
-    // The gross tier's looser counts (empty when it is off).
-    let loose: Vec<Vec<u16>> = views
-        .iter()
-        .map(|v| {
-            if cfg.gross_gap > 0.0 {
-                crate::planemap::nonplanar::sweep_confirmations(
-                    scene,
-                    v.view_index,
-                    &sweeps,
-                    cfg.gross_tolerance,
-                    cfg.gross_edge_px,
-                )
-            } else {
-                Vec::new()
-            }
         })
         .collect();
     let gap = cfg.gross_gap as f32;
@@ -1079,8 +1066,9 @@ pub fn confirm_nonplanar(
     let min_views = cfg.consistent_views.min(u16::MAX as usize) as u16;
     views
         .iter_mut()
-        .zip(counts.iter().zip(&loose))
-        .map(|(v, (count, loose))| {
+        .zip(&counts)
+        .map(|(v, tiers)| {
+            let (count, loose) = (&tiers[0], tiers.get(1));
             let Some(sweep) = &v.sweep_depth else {
                 return 0;
             };
@@ -1098,8 +1086,7 @@ pub fn confirm_nonplanar(
                     v.depth[p].is_nan() || v.depth[p] <= 0.0 || (v.depth[p] - z).abs() > t * z
                 };
                 let confirmed = count[p] >= min_views && off_by(tol);
-                let gross =
-                    gap > 0.0 && loose.get(p).is_some_and(|&n| n >= min_views) && off_by(gap);
+                let gross = loose.is_some_and(|l| l[p] >= min_views) && off_by(gap);
                 if z > 0.0 && (confirmed || gross) {
                     v.depth[p] = z;
                     v.normals[p] = normals[p];

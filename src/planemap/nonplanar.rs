@@ -591,13 +591,28 @@ pub fn sweep_confirmations(
     tolerance: f64,
     edge_px: usize,
 ) -> Vec<u16> {
+    sweep_confirmation_tiers(scene, view_index, sweep_depths, &[(tolerance, edge_px)])
+        .pop()
+        .unwrap_or_default()
+}
+
+/// [`sweep_confirmations`] for several `(tolerance, edge_px)` tiers at once (the
+/// confirmation's strict and gross tiers): each pixel is projected into the other views
+/// once, and one count map per tier is returned, in the tiers' order.
+pub fn sweep_confirmation_tiers(
+    scene: &Scene,
+    view_index: usize,
+    sweep_depths: &[Option<&[f32]>],
+    tiers: &[(f64, usize)],
+) -> Vec<Vec<u16>> {
     let view = &scene.views[view_index];
     let (w, h) = (view.camera.width as usize, view.camera.height as usize);
+    let k = tiers.len();
     let Some(Some(depth)) = sweep_depths.get(view_index) else {
-        return vec![0; w * h];
+        return vec![vec![0; w * h]; k];
     };
     if depth.len() != w * h {
-        return vec![0; w * h];
+        return vec![vec![0; w * h]; k];
     }
     // Depth jumps, then every pixel within edge_px of one.
     let jump = |a: f32, b: f32| a > 0.0 && b > 0.0 && (a - b).abs() > 0.05 * a.min(b);
@@ -615,7 +630,10 @@ pub fn sweep_confirmations(
             }
         }
     }
-    let near_edge = dilate(&edge, w, h, edge_px);
+    let near_edge: Vec<Vec<bool>> = tiers
+        .iter()
+        .map(|&(_, edge_px)| dilate(&edge, w, h, edge_px))
+        .collect();
     let others: Vec<(&crate::scene::View, &[f32])> = sweep_depths
         .iter()
         .enumerate()
@@ -627,20 +645,20 @@ pub fn sweep_confirmations(
         })
         .collect();
     let (origin, _) = view.ray(&nalgebra::Vector2::new(0.5, 0.5));
-    let mut counts = vec![0u16; w * h];
+    // Interleaved: pixel p's count for tier t at p·k + t.
+    let mut counts = vec![0u16; w * h * k];
     counts
-        .par_chunks_mut(w.max(1))
+        .par_chunks_mut((w * k).max(1))
         .enumerate()
         .for_each(|(y, row)| {
-            for (x, c) in row.iter_mut().enumerate() {
+            for (x, c) in row.chunks_mut(k.max(1)).enumerate() {
                 let p = y * w + x;
                 let z = depth[p];
-                if z.is_nan() || z <= 0.0 || near_edge[p] {
+                if z.is_nan() || z <= 0.0 || near_edge.iter().all(|e| e[p]) {
                     continue;
                 }
                 let (_, dir) = view.ray(&nalgebra::Vector2::new(x as f64 + 0.5, y as f64 + 0.5));
                 let point = origin + dir * z as f64;
-                let mut n = 0u16;
                 for (other, d) in &others {
                     let Some((xy, zj)) = other.project(&point) else {
                         continue;
@@ -650,14 +668,20 @@ pub fn sweep_confirmations(
                     }
                     let q = xy.y as usize * other.camera.width as usize + xy.x as usize;
                     let dj = d[q] as f64;
-                    if dj > 0.0 && (dj - zj).abs() <= tolerance * zj {
-                        n += 1;
+                    if dj <= 0.0 {
+                        continue;
+                    }
+                    for ((n, &(tolerance, _)), edge) in c.iter_mut().zip(tiers).zip(&near_edge) {
+                        if !edge[p] && (dj - zj).abs() <= tolerance * zj {
+                            *n += 1;
+                        }
                     }
                 }
-                *c = n;
             }
         });
-    counts
+    (0..k)
+        .map(|t| counts.iter().skip(t).step_by(k).copied().collect())
+        .collect()
 }
 
 /// `mask` grown by `radius` pixels (a (2r+1)² square), separably.
@@ -882,6 +906,35 @@ pub(crate) mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn tiers_counted_together_equal_each_tier_alone() {
+        let (scene, depths) = corner_depths();
+        // Views 2 % apart in depth, and a jump in view 0: tolerance and edge margin both matter.
+        let w = scene.views[0].camera.width as usize;
+        let mut d0: Vec<f32> = depths[0].iter().map(|&z| z * 1.02).collect();
+        for (p, z) in d0.iter_mut().enumerate() {
+            if (60..80).contains(&(p % w)) {
+                *z *= 0.8;
+            }
+        }
+        let all: Vec<Option<&[f32]>> = vec![Some(&d0), Some(&depths[1]), Some(&depths[2])];
+        let tiers = [(0.01, 2), (0.05, 5), (0.05, 0)];
+        let together = sweep_confirmation_tiers(&scene, 0, &all, &tiers);
+        assert_eq!(together.len(), 3);
+        for (counts, &(tol, edge)) in together.iter().zip(&tiers) {
+            assert_eq!(counts, &sweep_confirmations(&scene, 0, &all, tol, edge));
+        }
+        // The looser tier confirms what the strict one cannot.
+        let confirmed = |c: &Vec<u16>| c.iter().filter(|&&n| n == 2).count();
+        assert_eq!(confirmed(&together[0]), 0);
+        assert!(
+            confirmed(&together[1]) > 1000,
+            "{}",
+            confirmed(&together[1])
+        );
+        assert!(confirmed(&together[2]) > confirmed(&together[1]));
     }
 
     #[test]
