@@ -10,16 +10,20 @@
 //!   cost slices;
 //! - [`sweep`]: neighbour selection, plane families, the plane cost volume (cost per pixel and
 //!   plane, what the planemap data term consumes) and winner-takes-all plane-sweep depth
-//!   (Collins 1996; Gallup et al. 2007 for sweeps along the dominant axes).
+//!   (Collins 1996; Gallup et al. 2007 for sweeps along the dominant axes);
+//! - [`sgm`]: optional semi-global aggregation of a family's cost volume before the
+//!   winner-takes-all (Hirschmüller 2008).
 
 pub mod aggregate;
 pub mod measures;
 pub mod normalize;
+pub mod sgm;
 pub mod sweep;
 
 pub use aggregate::{box_filter, Aggregation, Integral};
 pub use measures::{raw_cost, Measure};
 pub use normalize::Normalization;
+pub use sgm::{semi_global, SgmConfig};
 pub use sweep::{
     axis_planes, axis_sweep_planes, fronto_parallel_depths, fronto_parallel_planes,
     multi_family_sweep, plane_cost_volume, plane_sweep, refine_subplane, select_neighbours,
@@ -207,6 +211,9 @@ pub struct SweepConfig {
     /// almost alike at a correct match, which would make every match look ambiguous). 0 =
     /// plain second-best.
     pub confidence_exclusion: usize,
+    /// Semi-global aggregation of each family's cost volume before the winner-takes-all
+    /// (off by default: `sgm.paths` = 0).
+    pub sgm: SgmConfig,
 }
 
 impl Default for SweepConfig {
@@ -214,6 +221,7 @@ impl Default for SweepConfig {
         SweepConfig {
             photo: PhotoConfig::default(),
             confidence_exclusion: 2,
+            sgm: SgmConfig::default(),
         }
     }
 }
@@ -221,7 +229,8 @@ impl Default for SweepConfig {
 impl SweepConfig {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), PhotoError> {
-        self.photo.validate()
+        self.photo.validate()?;
+        self.sgm.validate()
     }
 }
 
@@ -294,6 +303,11 @@ mod tests {
                 ..Default::default()
             },
             confidence_exclusion: 1,
+            sgm: SgmConfig {
+                paths: 8,
+                p2: 0.5,
+                ..Default::default()
+            },
         };
         let text = toml::to_string(&cfg).unwrap();
         let back: SweepConfig = toml::from_str(&text).unwrap();

@@ -11,6 +11,7 @@
 
 use super::aggregate::{window, Integral};
 use super::measures::{ncc_from_moments, ncc_from_weighted_moments, raw_cost, Measure};
+use super::sgm::semi_global;
 use super::{ColorMode, PhotoConfig, PhotoError, SweepConfig};
 use crate::geometry::{plane_homography, Plane};
 use crate::raster::ImageF32;
@@ -1090,7 +1091,10 @@ pub fn plane_sweep(
     cfg: &SweepConfig,
 ) -> Result<SweepResult, PhotoError> {
     cfg.validate()?;
-    let volume = plane_cost_volume(reference, ref_image, neighbours, planes, &cfg.photo)?;
+    let mut volume = plane_cost_volume(reference, ref_image, neighbours, planes, &cfg.photo)?;
+    if cfg.sgm.enabled() {
+        volume = semi_global(&volume, ref_image, &cfg.sgm)?;
+    }
     winner_takes_all(&volume, reference, planes, cfg.confidence_exclusion)
 }
 
@@ -1210,8 +1214,11 @@ pub fn multi_family_sweep(
     let mut best: Option<FamilySweepResult> = None;
     let mut offset = 0u32;
     for (f, family) in families.iter().enumerate() {
-        let volume =
+        let mut volume =
             plane_cost_volume(reference, ref_image, neighbours, &family.planes, &cfg.photo)?;
+        if cfg.sgm.enabled() {
+            volume = semi_global(&volume, ref_image, &cfg.sgm)?;
+        }
         let mut r = winner_takes_all(&volume, reference, &family.planes, cfg.confidence_exclusion)?;
         if subplane {
             refine_subplane(&volume, &mut r, reference, &family.planes, family.spacing);
