@@ -7,6 +7,9 @@
 //!   box-sum NCC costs the same whatever the window.
 //! - `aggregation`: the same, 15×15 NCC against the sweep baseline's default, 5×5 NCC with
 //!   each cost slice guided-filtered at radius 7 (what the edge-aware aggregation costs).
+//! - `semi_global`: semi-global aggregation (4 and 8 paths) of the `cost_volume` benchmark's
+//!   volume (640×480, 64 planes), single-threaded and on the default pool — to set beside the
+//!   cost volume's own time.
 //!
 //! Images are synthetic value noise; the geometry is a small stereo rig so most warps land
 //! inside the neighbour images (as in real sweeps, some do not).
@@ -14,7 +17,9 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use nalgebra::Vector3;
 use planemap::geometry::{look_at, Camera};
-use planemap::photo::{fronto_parallel_planes, plane_cost_volume, Aggregation, PhotoConfig};
+use planemap::photo::{
+    fronto_parallel_planes, plane_cost_volume, semi_global, Aggregation, PhotoConfig, SgmConfig,
+};
 use planemap::{ImageF32, View};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -180,11 +185,48 @@ fn support_weights(c: &mut Criterion) {
     single_thread_configs(c, "support_weights_640x480_16planes_1nbr", &configs);
 }
 
+fn sgm(c: &mut Criterion) {
+    let (views, images) = rig(4);
+    let planes = fronto_parallel_planes(&views[0], 3.0, 10.0, 64).unwrap();
+    let nbrs: Vec<(&View, &ImageF32)> = views[1..].iter().zip(&images[1..]).collect();
+    let volume = plane_cost_volume(
+        &views[0],
+        &images[0],
+        &nbrs,
+        &planes,
+        &PhotoConfig::default(),
+    )
+    .unwrap();
+    let mut group = c.benchmark_group("semi_global_640x480_64planes");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements((W * H) as u64 * planes.len() as u64));
+    let default_threads = rayon::current_num_threads();
+    for threads in [1, default_threads] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        for paths in [4usize, 8] {
+            let cfg = SgmConfig {
+                paths,
+                ..Default::default()
+            };
+            group.bench_function(format!("paths{paths}/threads{threads}"), |b| {
+                b.iter(|| {
+                    pool.install(|| black_box(semi_global(&volume, &images[0], &cfg).unwrap()))
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
     cost_volume,
     ncc_window,
     aggregation,
-    support_weights
+    support_weights,
+    sgm
 );
 criterion_main!(benches);
