@@ -9,7 +9,7 @@ use thiserror::Error;
 use crate::geometry::Plane;
 use crate::photo::{
     axis_planes, axis_sweep_planes, fronto_parallel_planes, multi_family_sweep, select_neighbours,
-    Aggregation, PhotoConfig, PhotoError, PlaneFamily, SweepConfig, SweepResult,
+    Aggregation, PhotoConfig, PhotoError, PlaneFamily, SgmConfig, SweepConfig, SweepResult,
 };
 pub use crate::photo::{refine_subplane, Spacing};
 use crate::raster::ImageF32;
@@ -130,6 +130,14 @@ impl Default for SweepBaselineConfig {
                         radius: 7,
                         eps: 1e-3,
                     },
+                    ..Default::default()
+                },
+                // Semi-global aggregation (Hirschmüller 2008) over 8 paths before the
+                // winner-takes-all: every view of the 13 scenes, textured surfaces within 1 %
+                // 88.16 → 88.87 %, plain surfaces 42.91 → 68.24 % (papers.md, *Semi-global
+                // aggregation*), 10–15 % more time.
+                sgm: SgmConfig {
+                    paths: 8,
                     ..Default::default()
                 },
                 ..Default::default()
@@ -599,6 +607,16 @@ mod tests {
             .with_overrides(&["sweep.photo.best_k=0".into()])
             .unwrap_err();
         assert!(err.to_string().contains("best_k"), "{err}");
+        // Semi-global aggregation: on by default, off with paths = 0, bad counts named.
+        assert_eq!(SweepBaselineConfig::default().sweep.sgm.paths, 8);
+        let off = SweepBaselineConfig::default()
+            .with_overrides(&["sweep.sgm.paths=0".into()])
+            .unwrap();
+        assert!(!off.sweep.sgm.enabled());
+        let err = SweepBaselineConfig::default()
+            .with_overrides(&["sweep.sgm.paths=3".into()])
+            .unwrap_err();
+        assert!(err.to_string().contains("sgm.paths"), "{err}");
         assert!(SweepBaselineConfig::default()
             .with_overrides(&["planes".into()])
             .is_err());

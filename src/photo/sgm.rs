@@ -44,8 +44,8 @@ impl Default for SgmConfig {
     fn default() -> Self {
         SgmConfig {
             paths: 0,
-            p1: 0.03,
-            p2: 0.3,
+            p1: 0.06,
+            p2: 0.6,
             p2_edge: 0.05,
         }
     }

@@ -258,6 +258,10 @@ impl NonplanarConfig {
         };
         cfg.sweep.photo.best_k = (self.sweep_neighbours / 2).max(1);
         cfg.sweep.photo.support_sigma_color = self.sweep_support_sigma_color;
+        // Winner-takes-all on the raw costs: the label's data cost, its confidence gate
+        // (`min_confidence`) and the confirmation were tuned on them, and the semi-global
+        // aggregation rescales both.
+        cfg.sweep.sgm = crate::photo::SgmConfig::default();
         cfg
     }
 }
