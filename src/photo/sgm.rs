@@ -90,6 +90,18 @@ impl SgmConfig {
     }
 }
 
+/// Scan directions `(dx, dy)`: the first 4 are the 4-path set, all 8 the 8-path set.
+const DIRECTIONS: [(isize, isize); 8] = [
+    (1, 0),
+    (-1, 0),
+    (0, 1),
+    (0, -1),
+    (1, 1),
+    (-1, 1),
+    (1, -1),
+    (-1, -1),
+];
+
 /// One step of a path: `out = L_r(p, ·)` from the pixel's costs and its predecessor's path
 /// costs `prev` (with their minimum `prev_min`); returns `min out`.
 fn step(cost: &[f32], prev: &[f32], prev_min: f32, p1: f32, p2: f32, out: &mut [f32]) -> f32 {
@@ -151,20 +163,7 @@ pub fn semi_global(
         .collect();
     let c = &volume.costs;
     let mut sum = vec![0.0f32; w * h * np];
-    let dirs: &[(isize, isize)] = if cfg.paths == 4 {
-        &[(1, 0), (-1, 0), (0, 1), (0, -1)]
-    } else {
-        &[
-            (1, 0),
-            (-1, 0),
-            (0, 1),
-            (0, -1),
-            (1, 1),
-            (-1, 1),
-            (1, -1),
-            (-1, -1),
-        ]
-    };
+    let dirs = &DIRECTIONS[..cfg.paths];
     for &(dx, dy) in dirs {
         if dy == 0 {
             // Rows are independent paths.
@@ -264,22 +263,8 @@ mod tests {
     /// A direct implementation of the recursion over explicit paths, one direction at a time.
     fn naive(volume: &CostVolume, grey: &[f32], cfg: &SgmConfig) -> Vec<f32> {
         let (w, h, np) = (volume.width, volume.height, volume.num_planes);
-        let dirs: Vec<(isize, isize)> = if cfg.paths == 4 {
-            vec![(1, 0), (-1, 0), (0, 1), (0, -1)]
-        } else {
-            vec![
-                (1, 0),
-                (-1, 0),
-                (0, 1),
-                (0, -1),
-                (1, 1),
-                (-1, 1),
-                (1, -1),
-                (-1, -1),
-            ]
-        };
         let mut total = vec![0.0f64; w * h * np];
-        for (dx, dy) in dirs {
+        for &(dx, dy) in &DIRECTIONS[..cfg.paths] {
             let mut l = vec![f64::NAN; w * h * np];
             // Visit pixels so that the predecessor (x − dx, y − dy) comes first.
             let ys: Vec<usize> = if dy >= 0 {
