@@ -130,12 +130,17 @@ impl Default for SweepBaselineConfig {
                         radius: 7,
                         eps: 1e-3,
                     },
+                    // Adaptive support weights (σc 0.15, σs 3): with the semi-global paths
+                    // below settling plain paint, the weights' loss there is small and their
+                    // gain beside depth edges stays (papers.md, *Semi-global aggregation*).
+                    support_sigma_color: 0.15,
                     ..Default::default()
                 },
                 // Semi-global aggregation (Hirschmüller 2008) over 8 paths before the
                 // winner-takes-all: every view of the 13 scenes, textured surfaces within 1 %
                 // 88.16 → 88.87 %, plain surfaces 42.91 → 68.24 % (papers.md, *Semi-global
-                // aggregation*), 10–15 % more time.
+                // aggregation*), 10–15 % more time; with the support weights above 89.57 /
+                // 66.45 %.
                 sgm: SgmConfig {
                     paths: 8,
                     ..Default::default()

@@ -215,8 +215,8 @@ impl Default for BenchConfig {
 /// suite fits its time budget on a shared 2-core machine (the sweep's cost is linear in
 /// planes × neighbours; sub-plane refinement keeps the depth continuous). `--sweep-planes`
 /// and `--sweep-neighbours` restore the full setting. The benchmark's sweep stays the plain
-/// winner-takes-all (no semi-global aggregation, which the baseline's default gained on 6
-/// Dec): the recorded sweep figures and the non-planar comparisons of papers.md are against
+/// winner-takes-all over box NCC (no semi-global aggregation nor support weights, which the
+/// baseline's default gained on 6 Dec): the recorded sweep figures and the non-planar comparisons of papers.md are against
 /// it, and re-running the suite's baseline is its own measurement.
 pub fn bench_sweep_config() -> SweepBaselineConfig {
     let mut cfg = SweepBaselineConfig {
@@ -225,6 +225,7 @@ pub fn bench_sweep_config() -> SweepBaselineConfig {
         ..SweepBaselineConfig::default()
     };
     cfg.sweep.sgm = crate::photo::SgmConfig::default();
+    cfg.sweep.photo.support_sigma_color = 0.0;
     cfg
 }
 

@@ -110,10 +110,11 @@ pub struct PhotoConfig {
     /// then matches mostly the side of its centre pixel, so a thin foreground structure
     /// (a fence picket, a pillar) does not lend its depth to the background around it.
     /// σc in intensity units (`[0, 1]`); 0 = uniform weights (the O(1) box NCC). The
-    /// weighted path costs O(r²) per pixel (5×5: 1.23× the box NCC's time). Off by default:
-    /// on the scenes it gains half a point on textured surfaces (thin's fence 3.4) and loses
-    /// two on plain ones (papers.md, adaptive support weights); 0.15 is the value measured
-    /// best there, e.g. `planemap sweep … --set sweep.photo.support_sigma_color=0.15`.
+    /// weighted path costs O(r²) per pixel (5×5: 1.23× the box NCC's time). Off by default
+    /// here: alone it gains half a point on textured surfaces (thin's fence 3.4) and loses
+    /// two on plain ones (papers.md, adaptive support weights). The sweep baseline sets 0.15
+    /// since it aggregates semi-globally, which keeps plain surfaces
+    /// (`--set sweep.photo.support_sigma_color=0` turns it off there).
     pub support_sigma_color: f32,
     /// σs of the support weights in pixels (used when `support_sigma_color` > 0).
     pub support_sigma_space: f32,
