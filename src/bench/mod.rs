@@ -216,8 +216,9 @@ impl Default for BenchConfig {
 /// planes × neighbours; sub-plane refinement keeps the depth continuous). `--sweep-planes`
 /// and `--sweep-neighbours` restore the full setting. The benchmark's sweep stays the plain
 /// winner-takes-all over box NCC (no semi-global aggregation nor support weights, which the
-/// baseline's default gained on 6 Dec): the recorded sweep figures and the non-planar comparisons of papers.md are against
-/// it, and re-running the suite's baseline is its own measurement.
+/// baseline's default gained on 6 Dec): the recorded sweep figures and the non-planar
+/// comparisons of papers.md are against it, and re-running the suite's baseline is its own
+/// measurement.
 pub fn bench_sweep_config() -> SweepBaselineConfig {
     let mut cfg = SweepBaselineConfig {
         planes: BENCH_SWEEP_PLANES,

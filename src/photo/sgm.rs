@@ -128,8 +128,8 @@ fn min_of(v: &[f32]) -> f32 {
 }
 
 /// Semi-global aggregation of `volume` (one family of parallel planes in sweep order, so that
-/// plane `k ± 1` is the next plane along the sweep), with `guide` (the reference image, any
-/// channel count, the volume's size) for the edge-aware `P2`. Returns the aggregated volume
+/// plane `k ± 1` is the next plane along the sweep), with `guide` (the reference image, grey
+/// or RGB, the volume's size; its luma steers the edge-aware `P2`). Returns the aggregated volume
 /// rescaled into `[0, 1]` (see the module documentation); with `cfg.paths == 0` a copy.
 /// The result does not depend on the thread count: each direction is computed in a fixed
 /// order and the directions are summed in a fixed order.
@@ -146,7 +146,7 @@ pub fn semi_global(
             volume.costs.len()
         )));
     }
-    if guide.width as usize != w || guide.height as usize != h || guide.channels == 0 {
+    if guide.width as usize != w || guide.height as usize != h || !matches!(guide.channels, 1 | 3) {
         return Err(PhotoError::Size(format!(
             "guide {}×{}×{} for a {w}×{h} cost volume",
             guide.width, guide.height, guide.channels
@@ -155,12 +155,7 @@ pub fn semi_global(
     if !cfg.enabled() || np == 0 || w == 0 || h == 0 {
         return Ok(volume.clone());
     }
-    let ch = guide.channels as usize;
-    let grey: Vec<f32> = guide
-        .data
-        .chunks_exact(ch)
-        .map(|c| c.iter().sum::<f32>() / ch as f32)
-        .collect();
+    let grey = guide.to_gray().data;
     let c = &volume.costs;
     let mut sum = vec![0.0f32; w * h * np];
     let dirs = &DIRECTIONS[..cfg.paths];
@@ -398,8 +393,7 @@ mod tests {
     #[test]
     fn a_weak_pixel_takes_its_neighbours_plane() {
         // A 15×1 strip on plane 5 of 10, whose middle pixel's own costs prefer plane 1
-        // slightly: aggregation hands it plane 5; a strong outlier elsewhere stays
-        // unchanged when P2 is small.
+        // slightly: aggregation hands it plane 5, and every other pixel keeps plane 5.
         let (w, np) = (15usize, 10usize);
         let mut costs = vec![0.8f32; w * np];
         for x in 0..w {
