@@ -38,6 +38,14 @@ pub struct SgmConfig {
     /// Edge-aware `P2`: divided by `1 + |ΔI| / p2_edge` between consecutive pixels whose
     /// grey levels (in `[0, 1]`) differ by `ΔI`, never below `p1`. 0 = a constant `P2`.
     pub p2_edge: f32,
+    /// Where the sub-plane refinement ([`super::refine_subplane`]) fits its parabola after
+    /// the paths picked the winner: `true` — to the local (pre-path) costs where they have
+    /// evidence and a convex minimum around the winning plane, to the aggregated ones
+    /// elsewhere; `false` — to the aggregated costs only. The paths' min-plus-penalty sums
+    /// flatten the cost curve about its minimum and bias the fit towards the plane itself.
+    /// Off by default: on every view of the 13 scenes it lost (papers.md, *Sub-plane fit on
+    /// the local costs: tried, not kept*).
+    pub subplane_on_local: bool,
 }
 
 impl Default for SgmConfig {
@@ -47,6 +55,7 @@ impl Default for SgmConfig {
             p1: 0.06,
             p2: 0.6,
             p2_edge: 0.05,
+            subplane_on_local: false,
         }
     }
 }
@@ -347,6 +356,7 @@ mod tests {
                     p1: 0.05,
                     p2: 0.4,
                     p2_edge,
+                    ..Default::default()
                 };
                 let got = semi_global(&vol, &guide, &cfg).unwrap();
                 let want = naive(&vol, &guide.data, &cfg);
@@ -429,6 +439,7 @@ mod tests {
             p1: 0.02,
             p2: 0.2,
             p2_edge: 0.0,
+            ..Default::default()
         };
         let agg = semi_global(&vol, &guide, &cfg).unwrap();
         assert_eq!(argmin(&agg.costs[mid..mid + np]), 5);
