@@ -112,7 +112,7 @@ pub struct PhotoConfig {
     /// σc in intensity units (`[0, 1]`); 0 = uniform weights (the O(1) box NCC). The
     /// weighted path costs O(r²) per pixel (5×5: 1.23× the box NCC's time). Off by default
     /// here: alone it gains half a point on textured surfaces (thin's fence 3.4) and loses
-    /// two on plain ones (papers.md, adaptive support weights). The sweep baseline sets 0.15
+    /// two on plain ones (papers.md, adaptive support weights). The sweep baseline sets 0.1
     /// since it aggregates semi-globally, which keeps plain surfaces
     /// (`--set sweep.photo.support_sigma_color=0` turns it off there).
     pub support_sigma_color: f32,
