@@ -223,6 +223,8 @@ pub fn bench_sweep_config() -> SweepBaselineConfig {
     let mut cfg = SweepBaselineConfig {
         planes: BENCH_SWEEP_PLANES,
         neighbours: BENCH_SWEEP_NEIGHBOURS,
+        // The recorded sweep column's 1 px step (the baseline's default is 0.7 since 6 Dec).
+        max_step_px: 1.0,
         ..SweepBaselineConfig::default()
     };
     cfg.sweep.sgm = crate::photo::SgmConfig::default();

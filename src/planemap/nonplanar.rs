@@ -254,6 +254,9 @@ impl NonplanarConfig {
             axis_planes: self.sweep_axis_planes,
             axis_families: self.sweep_axis_planes > 0,
             neighbours: self.sweep_neighbours,
+            // The 1 px step the label was tuned with (the baseline's default is finer since
+            // 6 Dec, with its semi-global paths, which the label does not use).
+            max_step_px: 1.0,
             ..SweepBaselineConfig::default()
         };
         cfg.sweep.photo.best_k = (self.sweep_neighbours / 2).max(1);
