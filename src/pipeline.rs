@@ -753,7 +753,7 @@ fn add_photo_term(
         image,
         &neighbours,
         &energy.planes,
-        &crate::photo::PhotoConfig::default(),
+        &photo_term_config(cfg),
     )
     .map_err(photo_err)?;
     let w = cfg.photo_weight as f32;
@@ -761,6 +761,15 @@ fn add_photo_term(
         *u += w * c;
     }
     Ok(())
+}
+
+/// The cost volume settings of the photo-consistency data term: 7×7 NCC (the measure's
+/// defaults), with `cfg.photo_support_sigma_color`'s adaptive support weights.
+fn photo_term_config(cfg: &PlanemapConfig) -> crate::photo::PhotoConfig {
+    crate::photo::PhotoConfig {
+        support_sigma_color: cfg.photo_support_sigma_color as f32,
+        ..Default::default()
+    }
 }
 
 /// Which views to process and how.
@@ -1577,6 +1586,90 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    #[test]
+    fn the_photo_term_is_the_cost_volume_with_the_configured_support_weights() {
+        let corner = crate::planemap::testutil::corner_scene();
+        let scene = Scene {
+            views: corner.views.clone(),
+            cloud: corner.cloud.clone(),
+        };
+        let inputs = crate::planemap::ViewInputs {
+            photo_planes: &[],
+            view_index: 0,
+            views: &corner.views,
+            image: &corner.images[0],
+            cloud: &corner.cloud,
+            planes: &corner.planes,
+            dominant_directions: &corner.directions,
+            scale: corner.scale,
+        };
+        let photo_costs = |sigma: f64| {
+            let cfg = PlanemapConfig {
+                photo_support_sigma_color: sigma,
+                ..PlanemapConfig::default()
+            };
+            let mut energy = PlanemapEnergy::build(&inputs, &cfg).unwrap();
+            let before = energy.unary.clone();
+            add_photo_term(
+                &scene,
+                0,
+                &corner.images[0],
+                &corner.images,
+                &mut energy,
+                &cfg,
+            )
+            .unwrap();
+            // Against the cost volume computed directly with σc = sigma.
+            let nb = crate::photo::select_neighbours(&scene, 0, cfg.photo_neighbours).unwrap();
+            assert!(!nb.is_empty());
+            let neighbours: Vec<_> = nb
+                .iter()
+                .map(|&j| (&scene.views[j], &corner.images[j]))
+                .collect();
+            let volume = crate::photo::plane_cost_volume(
+                &scene.views[0],
+                &corner.images[0],
+                &neighbours,
+                &energy.planes,
+                &crate::photo::PhotoConfig {
+                    support_sigma_color: sigma as f32,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            let added: Vec<f32> = energy
+                .unary
+                .iter()
+                .zip(&before)
+                .map(|(a, b)| a - b)
+                .collect();
+            assert_eq!(added.len(), volume.costs.len());
+            for (a, c) in added.iter().zip(&volume.costs) {
+                assert!((a - cfg.photo_weight as f32 * c).abs() < 1e-5, "{a} vs {c}");
+            }
+            added
+        };
+        let boxed = photo_costs(0.0);
+        let weighted = photo_costs(0.15);
+        // The weights change the windows that straddle the corner's creases and the stripe.
+        let changed = boxed
+            .iter()
+            .zip(&weighted)
+            .filter(|(a, b)| (*a - *b).abs() > 0.01)
+            .count();
+        assert!(
+            changed * 100 > boxed.len(),
+            "only {changed} of {} costs changed",
+            boxed.len()
+        );
+        assert!(PlanemapConfig {
+            photo_support_sigma_color: -0.1,
+            ..PlanemapConfig::default()
+        }
+        .validate()
+        .is_err_and(|e| e.to_string().contains("photo_support_sigma_color")));
     }
 
     #[test]

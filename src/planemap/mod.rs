@@ -125,6 +125,12 @@ pub struct PlanemapConfig {
     pub photo_weight: f64,
     /// Neighbour views matched by the photo-consistency term.
     pub photo_neighbours: usize,
+    /// Colour σ (grey levels in [0, 1]) of the adaptive support weights in the photo term's
+    /// 7×7 NCC windows (Yoon and Kweon 2006; [`crate::photo::PhotoConfig::support_sigma_color`],
+    /// spatial σ 3 px): a window pixel counts by how alike its colour is to the centre's, so a
+    /// contrasted foreground (a column, a picket) does not win its background's windows.
+    /// 0 = box windows (every pixel counts alike). 0.15 from all 13 scenes (papers.md).
+    pub photo_support_sigma_color: f64,
 }
 
 impl Default for PlanemapConfig {
@@ -146,6 +152,7 @@ impl Default for PlanemapConfig {
             max_labels: 0,
             photo_weight: 0.3,
             photo_neighbours: 3,
+            photo_support_sigma_color: 0.15,
         }
     }
 }
@@ -194,6 +201,7 @@ impl PlanemapConfig {
             });
         }
         non_negative("photo_weight", self.photo_weight)?;
+        non_negative("photo_support_sigma_color", self.photo_support_sigma_color)?;
         if !(self.dominant_line_weight.is_finite()
             && self.dominant_line_weight >= 0.0
             && self.dominant_line_weight <= 1.0)
