@@ -3,7 +3,7 @@
 //!
 //! ```sh
 //! cargo run --release --example energy_audit -- WORKSPACE [VIEW ...] [--set key=value ...] \
-//!     [--maps DIR [--photo-pair A,B]]
+//!     [--creases FILE] [--erode N] [--pairs K] [--maps DIR [--photo-pair A,B]]
 //! ```
 //!
 //! Per view it prints:
@@ -16,6 +16,14 @@
 //!
 //! If the oracle's energy is lower, the solver stopped in a worse local minimum; if it is
 //! higher, the energy itself prefers the wrong answer, and the split says which term.
+//!
+//! `--creases FILE` adds a run's `crease_hypotheses.json` to the labels (the energy of
+//! `planemap run`'s second labelling; without it, the first). `--erode N` constrains the
+//! oracle only where the whole (2N+1)² window around a pixel agrees on its right label, so
+//! its boundaries may move N pixels onto the image's lines instead of following the ground
+//! truth's exact silhouettes (which the line detector may miss by a pixel). `--pairs K`
+//! prints, for both labellings, the smoothness paid per kind of pair (on a dominant line /
+//! on another image edge / elsewhere) and the K dearest (plane, plane, kind) groups.
 //!
 //! `--maps DIR` writes `smooth_VIEW.png`: planemap's labels, the oracle's, each darkened
 //! with the smoothness it pays in red, and the pixels where they differ (red where the
@@ -54,19 +62,78 @@ fn split(e: &PlanemapEnergy, vis: &PlanemapEnergy, labels: &[u32]) -> (f64, f64,
     (dv, dp, s)
 }
 
+/// Prints the smoothness a labelling pays, split by kind of pair — on a dominant line (low
+/// weight), on another image edge, elsewhere — and the `top` dearest (plane, plane, kind)
+/// groups (global plane ids).
+fn print_pair_split(e: &PlanemapEnergy, labels: &[u32], name: &str, top: usize) {
+    use std::collections::BTreeMap;
+    let (w, h) = (e.width as usize, e.height as usize);
+    let kind = |p: usize, q: usize| {
+        if e.weights.between(p, q) < 1.0 {
+            "line"
+        } else if e.weights.edge_between(p, q) {
+            "edge"
+        } else {
+            "plain"
+        }
+    };
+    let mut groups: BTreeMap<(u32, u32, &str), (usize, f64)> = BTreeMap::new();
+    for y in 0..h {
+        for x in 0..w {
+            let p = y * w + x;
+            let right = (x + 1 < w).then_some(p + 1);
+            let down = (y + 1 < h).then_some(p + w);
+            for q in [right, down].into_iter().flatten() {
+                let (a, b) = (labels[p], labels[q]);
+                if a == b {
+                    continue;
+                }
+                let (ga, gb) = (e.labels[a as usize], e.labels[b as usize]);
+                let g = groups
+                    .entry((ga.min(gb), ga.max(gb), kind(p, q)))
+                    .or_default();
+                g.0 += 1;
+                g.1 += e.pairwise(p, q, a, b) as f64;
+            }
+        }
+    }
+    let mut totals: BTreeMap<&str, (usize, f64)> = BTreeMap::new();
+    for ((_, _, k), (count, cost)) in &groups {
+        let t = totals.entry(k).or_default();
+        t.0 += count;
+        t.1 += cost;
+    }
+    let totals: Vec<String> = totals
+        .iter()
+        .map(|(k, (count, cost))| format!("{k} {count} pairs {cost:.1}"))
+        .collect();
+    println!("  {name} smoothness by pair: {}", totals.join(", "));
+    let mut groups: Vec<_> = groups.into_iter().collect();
+    groups.sort_by(|a, b| b.1 .1.total_cmp(&a.1 .1));
+    for ((a, b, k), (count, cost)) in groups.iter().take(top) {
+        println!("    planes {a:>3} | {b:<3} {k:<5}: {count:5} pairs, {cost:8.1}");
+    }
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let Some(ws) = args.next().map(PathBuf::from) else {
-        eprintln!("usage: energy_audit WORKSPACE [VIEW ...] [--set key=value ...] [--maps DIR [--photo-pair A,B]]");
+        eprintln!("usage: energy_audit WORKSPACE [VIEW ...] [--set key=value ...] [--creases FILE] [--erode N] [--pairs K] [--maps DIR [--photo-pair A,B]]");
         std::process::exit(2);
     };
     let mut views = Vec::new();
     let mut overrides = Vec::new();
     let mut maps: Option<String> = None;
+    let mut creases: Option<String> = None;
+    let mut erode = 0usize;
+    let mut top_pairs = 0usize;
     let mut pair: Option<Vec<u32>> = None;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--set" => overrides.push(args.next().ok_or("--set needs key=value")?),
+            "--creases" => creases = Some(args.next().ok_or("--creases needs a file")?),
+            "--erode" => erode = args.next().ok_or("--erode needs N")?.parse()?,
+            "--pairs" => top_pairs = args.next().ok_or("--pairs needs K")?.parse()?,
             "--maps" => maps = Some(args.next().ok_or("--maps needs a directory")?),
             "--photo-pair" => {
                 let v = args.next().ok_or("--photo-pair needs A,B")?;
@@ -86,7 +153,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if views.is_empty() {
         views = (0..scene.views.len()).collect();
     }
-    let prepared = pipeline::prepare(&scene, &cfg)?;
+    let mut prepared = pipeline::prepare(&scene, &cfg)?;
+    if let Some(f) = &creases {
+        let base = prepared.hypotheses.len();
+        let extra = pipeline::read_crease_hypotheses(std::path::Path::new(f), &scene, base)
+            .ok_or("cannot read the crease hypotheses")?;
+        for c in extra {
+            prepared.hypotheses.push(c.hypothesis);
+            prepared.crease_views.push(c.views);
+        }
+    }
+    let prepared = prepared;
     let mut vis_cfg = cfg.clone();
     vis_cfg.planemap.photo_weight = 0.0;
     println!(
@@ -171,6 +248,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         // The lowest-energy labelling among those that are right wherever a kept label can
         // be: α-expansion on the same energy with every wrong label made prohibitive there.
+        let fixable = if erode == 0 {
+            fixable
+        } else {
+            let (w, h) = (e.width as usize, e.height as usize);
+            (0..n)
+                .map(|p| {
+                    let (x, y) = (p % w, p / w);
+                    fixable[p]
+                        && (y.saturating_sub(erode)..(y + erode + 1).min(h)).all(|yy| {
+                            (x.saturating_sub(erode)..(x + erode + 1).min(w)).all(|xx| {
+                                let q = yy * w + xx;
+                                fixable[q] && oracle[q] == oracle[p]
+                            })
+                        })
+                })
+                .collect()
+        };
         let oracle = {
             let nl = e.num_labels();
             let scale = cfg.solver.cost_scale;
@@ -232,6 +326,30 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 "higher: the energy prefers ours"
             }
         );
+        if top_pairs > 0 {
+            for (name, lab) in [("ours", &ours), ("oracle", &oracle)] {
+                print_pair_split(&e, lab, name, top_pairs);
+            }
+        }
+        if let Some(dir) = &maps {
+            // The smoothness weights over the image at half brightness: yellow where a pair
+            // from the pixel (right or down) has a low weight, blue on other image edges.
+            let mut im = image::RgbImage::new(e.width, e.height);
+            let grey = image.to_gray();
+            for p in 0..n {
+                let g = (grey.data[p].clamp(0.0, 1.0) * 127.0) as u8;
+                let px = if e.weights.right[p] < 1.0 || e.weights.down[p] < 1.0 {
+                    [255, 255, 0]
+                } else if e.weights.image_edge[p] {
+                    [0, 0, 255]
+                } else {
+                    [g, g, g]
+                };
+                let (x, y) = ((p % e.width as usize) as u32, (p / e.width as usize) as u32);
+                im.put_pixel(x, y, image::Rgb(px));
+            }
+            im.save(format!("{dir}/lines_{v}.png"))?;
+        }
         if let Some(dir) = &maps {
             // Per-pixel smoothness paid (right and down pairs) and labels, for both labellings.
             let (w, h) = (e.width as usize, e.height as usize);

@@ -9,12 +9,89 @@
 //!
 //! `DEPTH_DIR` holds `NAME.pfm` per ground-truth `depth/NAME.pfm` (a run's `depth/`, its
 //! `sweep/`, or `planemap sweep`'s `depth/`); a view whose file is missing is skipped.
+//!
+//! `--box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX` (world frame) also splits the planar pixels into
+//! those whose ground-truth surface point lies in the box and the rest, and describes the
+//! box's surface as the input saw it: the sparse points of the workspace's `sparse/` model
+//! inside the box, and the median 5×5 standard deviation of the grey image (`images/`) over
+//! its pixels (the image noise alone gives about 0.007 in the synthetic scenes) — e.g. to
+//! show that a surface carried no evidence of its depth. The workspace is `GT_DIR/..`.
 
 use std::path::PathBuf;
 
+use nalgebra::{Vector2, Vector3};
 use planemap::bench::metrics::{depth_counts, has_depth, DepthCounts};
+use planemap::io::colmap::read_model;
 use planemap::io::labelpng::read_label_png;
 use planemap::io::pfm::read_pfm_path;
+use planemap::scene::Scene;
+
+/// An axis-aligned world box.
+struct WorldBox {
+    min: Vector3<f64>,
+    max: Vector3<f64>,
+}
+
+impl WorldBox {
+    fn parse(s: &str) -> Result<Self, String> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|t| t.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("--box {s:?}: {e}"))?;
+        if v.len() != 6 || (0..3).any(|i| v[i] > v[i + 3]) {
+            return Err(format!(
+                "--box {s:?}: expected XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX with each min <= max"
+            ));
+        }
+        Ok(WorldBox {
+            min: Vector3::new(v[0], v[1], v[2]),
+            max: Vector3::new(v[3], v[4], v[5]),
+        })
+    }
+
+    fn contains(&self, x: &Vector3<f64>) -> bool {
+        (0..3).all(|i| x[i] >= self.min[i] && x[i] <= self.max[i])
+    }
+}
+
+/// Per pixel of view `name`: whether its ground-truth surface point (depth `gt`) is in `b`.
+fn in_box(scene: &Scene, name: &str, gt: &[f32], width: u32, b: &WorldBox) -> Option<Vec<bool>> {
+    let view = scene.views.iter().find(|v| v.name == name)?;
+    Some(
+        gt.iter()
+            .enumerate()
+            .map(|(p, &z)| {
+                let (x, y) = (
+                    (p as u32 % width) as f64 + 0.5,
+                    (p as u32 / width) as f64 + 0.5,
+                );
+                let (o, d) = view.ray(&Vector2::new(x, y));
+                has_depth(z) && b.contains(&(o + d * z as f64))
+            })
+            .collect(),
+    )
+}
+
+/// Standard deviation of the grey image over the 5×5 window around each interior pixel.
+fn local_std(grey: &[f32], w: usize, h: usize) -> Vec<Option<f32>> {
+    let mut out = vec![None; w * h];
+    for y in 2..h.saturating_sub(2) {
+        for x in 2..w.saturating_sub(2) {
+            let (mut s, mut s2) = (0.0f64, 0.0f64);
+            for yy in y - 2..=y + 2 {
+                for xx in x - 2..=x + 2 {
+                    let g = grey[yy * w + xx] as f64;
+                    s += g;
+                    s2 += g * g;
+                }
+            }
+            let m = s / 25.0;
+            out[y * w + x] = Some((s2 / 25.0 - m * m).max(0.0).sqrt() as f32);
+        }
+    }
+    out
+}
 
 #[derive(Default)]
 struct Gross {
@@ -23,18 +100,73 @@ struct Gross {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<PathBuf> = std::env::args().skip(1).map(PathBuf::from).collect();
+    let mut args: Vec<PathBuf> = Vec::new();
+    let mut world_box: Option<WorldBox> = None;
+    let mut it = std::env::args().skip(1);
+    while let Some(a) = it.next() {
+        if a == "--box" {
+            world_box = Some(WorldBox::parse(
+                &it.next().ok_or("--box needs six numbers")?,
+            )?);
+        } else {
+            args.push(PathBuf::from(a));
+        }
+    }
     if args.len() < 2 {
-        eprintln!("usage: score_split GT_DIR DEPTH_DIR [DEPTH_DIR ...]");
+        eprintln!("usage: score_split GT_DIR DEPTH_DIR [DEPTH_DIR ...] [--box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX]");
         std::process::exit(2);
     }
     let gt = &args[0];
+    let ws = gt.join("..");
+    let scene = match &world_box {
+        Some(b) => {
+            let scene = read_model(&ws.join("sparse"))?
+                .to_scene(Some(&ws.join("images")))?
+                .undistorted();
+            let inside = scene
+                .cloud
+                .positions
+                .iter()
+                .filter(|x| b.contains(x))
+                .count();
+            let mut stds: Vec<f32> = Vec::new();
+            let mut box_pixels = 0usize;
+            for view in &scene.views {
+                let stem = std::path::Path::new(&view.name).with_extension("pfm");
+                let Ok(gt_depth) = read_pfm_path(&gt.join("depth").join(&stem)) else {
+                    continue;
+                };
+                let Some(mask) = in_box(&scene, &view.name, &gt_depth.data, gt_depth.width, b)
+                else {
+                    continue;
+                };
+                let image = view.load_undistorted_image()?.to_gray();
+                let (w, h) = (image.width as usize, image.height as usize);
+                for (p, s) in local_std(&image.data, w, h).into_iter().enumerate() {
+                    if mask[p] {
+                        box_pixels += 1;
+                        stds.extend(s);
+                    }
+                }
+            }
+            stds.sort_by(f32::total_cmp);
+            let median = stds.get(stds.len() / 2).copied().unwrap_or(f32::NAN);
+            println!(
+                "box: {box_pixels} ground-truth pixels over all views; {inside} of the {} sparse \
+                 points inside; grey 5×5 std median {median:.4} over its pixels",
+                scene.cloud.len()
+            );
+            Some(scene)
+        }
+        None => None,
+    };
     let mut names: Vec<_> = std::fs::read_dir(gt.join("depth"))?
         .filter_map(|e| e.ok().map(|e| e.file_name()))
         .collect();
     names.sort();
     for dir in &args[1..] {
         let (mut planar, mut nonplanar) = (DepthCounts::default(), DepthCounts::default());
+        let (mut planar_in, mut planar_out) = (DepthCounts::default(), DepthCounts::default());
         let mut gross = Gross::default();
         let mut views = 0;
         for name in &names {
@@ -46,7 +178,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let gt_depth = read_pfm_path(&gt.join("depth").join(name))?;
             let pred = read_pfm_path(&pred_path)?;
             let stem = std::path::Path::new(name).with_extension("png");
-            let (_, _, ids) = read_label_png(&gt.join("planes").join(stem))?;
+            let (_, _, ids) = read_label_png(&gt.join("planes").join(&stem))?;
             let split = |want_planar: bool| -> Vec<f32> {
                 gt_depth
                     .data
@@ -55,7 +187,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .map(|(&z, &id)| if (id != 0) == want_planar { z } else { 0.0 })
                     .collect()
             };
-            planar.add(&depth_counts(&pred.data, &split(true), None));
+            let planar_gt = split(true);
+            planar.add(&depth_counts(&pred.data, &planar_gt, None));
+            if let (Some(scene), Some(b)) = (&scene, &world_box) {
+                let view_name = stem.to_string_lossy();
+                if let Some(mask) = in_box(scene, &view_name, &gt_depth.data, gt_depth.width, b) {
+                    let part = |want: bool| -> Vec<f32> {
+                        planar_gt
+                            .iter()
+                            .zip(&mask)
+                            .map(|(&z, &m)| if m == want { z } else { 0.0 })
+                            .collect()
+                    };
+                    planar_in.add(&depth_counts(&pred.data, &part(true), None));
+                    planar_out.add(&depth_counts(&pred.data, &part(false), None));
+                }
+            }
             let np_gt = split(false);
             nonplanar.add(&depth_counts(&pred.data, &np_gt, None));
             for (&z, &g) in pred.data.iter().zip(&np_gt) {
@@ -89,6 +236,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             gross.near.0,
             share(gross.near.1),
         );
+        if world_box.is_some() {
+            println!(
+                "  planar pixels in the box {:.2} % within 1 % (of {}); outside it {:.2} % (of {})",
+                100.0 * planar_in.accuracy(1),
+                planar_in.gt_pixels,
+                100.0 * planar_out.accuracy(1),
+                planar_out.gt_pixels
+            );
+        }
     }
     Ok(())
 }

@@ -1455,7 +1455,7 @@ fn write_crease_hypotheses(
 /// Saved crease hypotheses for `--resume`, if the file exists, parses, continues the ids
 /// of the `base` hypotheses this run prepared and names only views of `scene`; `None`
 /// (recompute) otherwise.
-fn read_crease_hypotheses(
+pub fn read_crease_hypotheses(
     path: &Path,
     scene: &Scene,
     base: usize,
