@@ -158,10 +158,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let base = prepared.hypotheses.len();
         let extra = pipeline::read_crease_hypotheses(std::path::Path::new(f), &scene, base)
             .ok_or("cannot read the crease hypotheses")?;
-        for c in extra {
-            prepared.hypotheses.push(c.hypothesis);
-            prepared.crease_views.push(c.views);
-        }
+        prepared.add_crease_hypotheses(extra);
     }
     let prepared = prepared;
     let mut vis_cfg = cfg.clone();

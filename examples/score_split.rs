@@ -20,11 +20,12 @@
 use std::path::PathBuf;
 
 use nalgebra::{Vector2, Vector3};
+use planemap::baseline::local_std;
 use planemap::bench::metrics::{depth_counts, has_depth, DepthCounts};
 use planemap::io::colmap::read_model;
 use planemap::io::labelpng::read_label_png;
 use planemap::io::pfm::read_pfm_path;
-use planemap::scene::Scene;
+use planemap::scene::View;
 
 /// An axis-aligned world box.
 struct WorldBox {
@@ -55,42 +56,19 @@ impl WorldBox {
     }
 }
 
-/// Per pixel of view `name`: whether its ground-truth surface point (depth `gt`) is in `b`.
-fn in_box(scene: &Scene, name: &str, gt: &[f32], width: u32, b: &WorldBox) -> Option<Vec<bool>> {
-    let view = scene.views.iter().find(|v| v.name == name)?;
-    Some(
-        gt.iter()
-            .enumerate()
-            .map(|(p, &z)| {
-                let (x, y) = (
-                    (p as u32 % width) as f64 + 0.5,
-                    (p as u32 / width) as f64 + 0.5,
-                );
-                let (o, d) = view.ray(&Vector2::new(x, y));
-                has_depth(z) && b.contains(&(o + d * z as f64))
-            })
-            .collect(),
-    )
-}
-
-/// Standard deviation of the grey image over the 5×5 window around each interior pixel.
-fn local_std(grey: &[f32], w: usize, h: usize) -> Vec<Option<f32>> {
-    let mut out = vec![None; w * h];
-    for y in 2..h.saturating_sub(2) {
-        for x in 2..w.saturating_sub(2) {
-            let (mut s, mut s2) = (0.0f64, 0.0f64);
-            for yy in y - 2..=y + 2 {
-                for xx in x - 2..=x + 2 {
-                    let g = grey[yy * w + xx] as f64;
-                    s += g;
-                    s2 += g * g;
-                }
-            }
-            let m = s / 25.0;
-            out[y * w + x] = Some((s2 / 25.0 - m * m).max(0.0).sqrt() as f32);
-        }
-    }
-    out
+/// Per pixel of `view`: whether its ground-truth surface point (depth `gt`) is in `b`.
+fn in_box(view: &View, gt: &[f32], width: u32, b: &WorldBox) -> Vec<bool> {
+    gt.iter()
+        .enumerate()
+        .map(|(p, &z)| {
+            let (x, y) = (
+                (p as u32 % width) as f64 + 0.5,
+                (p as u32 / width) as f64 + 0.5,
+            );
+            let (o, d) = view.ray(&Vector2::new(x, y));
+            has_depth(z) && b.contains(&(o + d * z as f64))
+        })
+        .collect()
 }
 
 #[derive(Default)]
@@ -118,48 +96,39 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let gt = &args[0];
     let ws = gt.join("..");
-    let scene = match &world_box {
-        Some(b) => {
-            let scene = read_model(&ws.join("sparse"))?
-                .to_scene(Some(&ws.join("images")))?
-                .undistorted();
-            let inside = scene
-                .cloud
-                .positions
-                .iter()
-                .filter(|x| b.contains(x))
-                .count();
-            let mut stds: Vec<f32> = Vec::new();
-            let mut box_pixels = 0usize;
-            for view in &scene.views {
-                let stem = std::path::Path::new(&view.name).with_extension("pfm");
-                let Ok(gt_depth) = read_pfm_path(&gt.join("depth").join(&stem)) else {
-                    continue;
-                };
-                let Some(mask) = in_box(&scene, &view.name, &gt_depth.data, gt_depth.width, b)
-                else {
-                    continue;
-                };
-                let image = view.load_undistorted_image()?.to_gray();
-                let (w, h) = (image.width as usize, image.height as usize);
-                for (p, s) in local_std(&image.data, w, h).into_iter().enumerate() {
-                    if mask[p] {
-                        box_pixels += 1;
-                        stds.extend(s);
-                    }
-                }
-            }
-            stds.sort_by(f32::total_cmp);
-            let median = stds.get(stds.len() / 2).copied().unwrap_or(f32::NAN);
-            println!(
-                "box: {box_pixels} ground-truth pixels over all views; {inside} of the {} sparse \
-                 points inside; grey 5×5 std median {median:.4} over its pixels",
-                scene.cloud.len()
-            );
-            Some(scene)
+    // Per view name, which pixels' ground-truth surface points lie in the box (computed
+    // once, shared by every DEPTH_DIR).
+    let mut box_masks: std::collections::HashMap<String, Vec<bool>> = Default::default();
+    if let Some(b) = &world_box {
+        let scene = read_model(&ws.join("sparse"))?
+            .to_scene(Some(&ws.join("images")))?
+            .undistorted();
+        let inside = scene
+            .cloud
+            .positions
+            .iter()
+            .filter(|x| b.contains(x))
+            .count();
+        let mut stds: Vec<f64> = Vec::new();
+        for view in &scene.views {
+            let stem = std::path::Path::new(&view.name).with_extension("pfm");
+            let Ok(gt_depth) = read_pfm_path(&gt.join("depth").join(&stem)) else {
+                continue;
+            };
+            let mask = in_box(view, &gt_depth.data, gt_depth.width, b);
+            let std = local_std(&view.load_undistorted_image()?, 2);
+            stds.extend(std.iter().zip(&mask).filter(|(_, &m)| m).map(|(&s, _)| s));
+            box_masks.insert(view.name.clone(), mask);
         }
-        None => None,
-    };
+        stds.sort_by(f64::total_cmp);
+        let median = stds.get(stds.len() / 2).copied().unwrap_or(f64::NAN);
+        println!(
+            "box: {} ground-truth pixels over all views; {inside} of the {} sparse points \
+             inside; grey 5×5 std median {median:.4} over its pixels",
+            stds.len(),
+            scene.cloud.len()
+        );
+    }
     let mut names: Vec<_> = std::fs::read_dir(gt.join("depth"))?
         .filter_map(|e| e.ok().map(|e| e.file_name()))
         .collect();
@@ -189,19 +158,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             };
             let planar_gt = split(true);
             planar.add(&depth_counts(&pred.data, &planar_gt, None));
-            if let (Some(scene), Some(b)) = (&scene, &world_box) {
-                let view_name = stem.to_string_lossy();
-                if let Some(mask) = in_box(scene, &view_name, &gt_depth.data, gt_depth.width, b) {
-                    let part = |want: bool| -> Vec<f32> {
-                        planar_gt
-                            .iter()
-                            .zip(&mask)
-                            .map(|(&z, &m)| if m == want { z } else { 0.0 })
-                            .collect()
-                    };
-                    planar_in.add(&depth_counts(&pred.data, &part(true), None));
-                    planar_out.add(&depth_counts(&pred.data, &part(false), None));
-                }
+            if let Some(mask) = box_masks.get(stem.to_string_lossy().as_ref()) {
+                let part = |want: bool| -> Vec<f32> {
+                    planar_gt
+                        .iter()
+                        .zip(mask)
+                        .map(|(&z, &m)| if m == want { z } else { 0.0 })
+                        .collect()
+                };
+                planar_in.add(&depth_counts(&pred.data, &part(true), None));
+                planar_out.add(&depth_counts(&pred.data, &part(false), None));
             }
             let np_gt = split(false);
             nonplanar.add(&depth_counts(&pred.data, &np_gt, None));

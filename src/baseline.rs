@@ -556,6 +556,15 @@ fn percentile(values: &[f64], q: f64) -> f64 {
 /// least `threshold` (in [0, 1] units). What counts as "textured" is read off the image, as
 /// a stereo method would see it.
 pub fn texture_mask(image: &ImageF32, radius: u32, threshold: f32) -> Vec<bool> {
+    local_std(image, radius)
+        .into_iter()
+        .map(|s| s >= threshold as f64)
+        .collect()
+}
+
+/// Per pixel, the standard deviation of the grey level over the `(2r+1)²` window around it
+/// (clipped at the image border), in [0, 1] units.
+pub fn local_std(image: &ImageF32, radius: u32) -> Vec<f64> {
     let grey = image.to_gray();
     let (w, h) = (grey.width as usize, grey.height as usize);
     // Integral images of v and v² (f64 for exactness over large images).
@@ -572,7 +581,7 @@ pub fn texture_mask(image: &ImageF32, radius: u32, threshold: f32) -> Vec<bool> 
         }
     }
     let r = radius as usize;
-    let mut mask = vec![false; w * h];
+    let mut std = vec![0.0f64; w * h];
     for y in 0..h {
         let (y0, y1) = (y.saturating_sub(r), (y + r + 1).min(h));
         for x in 0..w {
@@ -583,11 +592,10 @@ pub fn texture_mask(image: &ImageF32, radius: u32, threshold: f32) -> Vec<bool> 
                     + s[y0 * (w + 1) + x0]
             };
             let mean = sum(&s1) / n;
-            let var = (sum(&s2) / n - mean * mean).max(0.0);
-            mask[y * w + x] = var.sqrt() >= threshold as f64;
+            std[y * w + x] = (sum(&s2) / n - mean * mean).max(0.0).sqrt();
         }
     }
-    mask
+    std
 }
 
 #[cfg(test)]

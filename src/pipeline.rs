@@ -289,6 +289,17 @@ pub struct Prepared {
     pub seconds: [f64; 3],
 }
 
+impl Prepared {
+    /// Appends crease hypotheses (their ids continue `hypotheses`'), each offered in the
+    /// views that see it.
+    pub fn add_crease_hypotheses(&mut self, creases: Vec<CreaseHypothesis>) {
+        for c in creases {
+            self.hypotheses.push(c.hypothesis);
+            self.crease_views.push(c.views);
+        }
+    }
+}
+
 /// The sparse-point stages: sampling scale, normals, dominant axes and the plane hypotheses
 /// of the points, with the axes refit from the points on their hypotheses
 /// (`cfg.axes.refine.iterations` rounds). No images are read.
@@ -916,10 +927,7 @@ pub fn run(
                 extra
             }
         };
-        for c in extra {
-            prepared.hypotheses.push(c.hypothesis);
-            prepared.crease_views.push(c.views);
-        }
+        prepared.add_crease_hypotheses(extra);
     }
     let prepared = prepared;
     let bar = progress.bar(indices.len() as u64, "planemaps");
