@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::axes::DominantAxes;
-use crate::baseline::texture_mask;
+use crate::photo::texture_mask;
 use crate::geometry::Plane;
 use crate::photo::{plane_cost_volume, select_neighbours};
 use crate::raster::ImageF32;
@@ -463,7 +463,7 @@ pub struct SweepHypothesesConfig {
     /// Sweep each offset bin at several evenly spaced sub-planes (scored by the cheapest)
     /// until consecutive sub-planes move a pixel at most this far in the neighbours (pixels
     /// of the reduced images; the `step_quantile` over a view's pixels and plane pairs,
-    /// median over the views; [`crate::baseline::family_step_px`]). A plane seen at a
+    /// median over the views; [`crate::photo::family_step_px`]). A plane seen at a
     /// grazing angle (a lawn from eye height) moves pixels several pixels per step of 2 R,
     /// further than the 5×5 NCC basin is wide, so none of the bin's offsets matched and
     /// nothing voted for it. Bins, margins and peaks stay those of the `step_r` grid; a
@@ -810,7 +810,7 @@ pub fn sweep_hypotheses(
                         })
                         .collect();
                     let nbrs: Vec<&View> = neighbours_of[v].iter().map(|&j| &small[j].0).collect();
-                    crate::baseline::family_step_px(&small[v].0, &nbrs, &planes, sc.step_quantile)
+                    crate::photo::family_step_px(&small[v].0, &nbrs, &planes, sc.step_quantile)
                 })
                 .collect();
             px.sort_by(f64::total_cmp);

@@ -6,25 +6,33 @@
 //! papers each module implements.
 #![deny(missing_docs)]
 
-pub mod axes;
-pub mod baseline;
-pub mod bench;
-pub mod classify;
-pub mod eval;
+// Core: the data every stage shares.
 pub mod geometry;
-pub mod hypotheses;
-pub mod info;
-pub mod io;
-pub mod normals;
-pub mod photo;
-pub mod pipeline;
-pub mod planemap;
-pub mod progress;
 pub mod raster;
-pub mod scale;
 pub mod scene;
+pub mod io;
+pub mod config;
+pub mod progress;
+
+// Stages, in pipeline order.
+pub mod scale;
+pub mod normals;
+pub mod axes;
+pub mod photo;
+pub mod hypotheses;
+pub mod planemap;
+pub mod classify;
+pub mod nonplanar;
+pub mod pipeline;
+
+// Harness: scenes, scores, baselines, the benchmark and audits; never imported by a stage.
 pub mod synth;
 pub mod workspace;
+pub mod eval;
+pub mod baselines;
+pub mod bench;
+pub mod info;
+pub mod diag;
 
 pub use geometry::{Camera, CameraModel, Plane, Rigid3};
 pub use raster::ImageF32;

@@ -10,7 +10,7 @@ use planemap::pipeline::{self, Config, RunOptions};
 use planemap::progress::Progress;
 
 /// Piecewise-planar multi-view stereo for buildings: planemaps, depth and normal maps, planes
-/// and planar meshes from calibrated photographs.
+/// and fused points from calibrated photographs.
 #[derive(Parser)]
 #[command(name = "planemap", version, about, long_about = None)]
 #[command(after_help = "Examples:
@@ -62,6 +62,48 @@ enum Command {
   planemap bench scenes/ -o bench-out
   planemap bench scenes/ -o bench-out --methods planemap,sweep --scenes room,hard --size small")]
     Bench(BenchArgs),
+    /// The configuration: print the defaults with each key's meaning, unit and range.
+    #[command(after_help = "Examples:
+  planemap config --defaults > my.toml
+  planemap config --check my.toml --set planemap.lambda=0.5")]
+    Config(ConfigArgs),
+    /// Audits on a synthetic workspace: why a result is what it is.
+    #[command(subcommand)]
+    Diag(DiagCommand),
+}
+
+#[derive(Subcommand)]
+enum DiagCommand {
+    /// planemap's labelling against the best ground-truth-correct labelling under the same
+    /// energy, split into visibility, photo and smoothness.
+    #[command(after_help = "Example:\n  planemap diag energy ws/room 0 5 --pairs 5 --maps maps/")]
+    Energy(planemap::diag::energy::EnergyArgs),
+    /// Data costs of the non-planar label against the cheapest plane on non-planar pixels
+    /// whose sweep depth is right.
+    #[command(after_help = "Example:\n  planemap diag nonplanar ws/statues 2")]
+    Nonplanar(planemap::diag::nonplanar::NonplanarArgs),
+    /// The plane-sweep baseline's families and where its winner is wrong.
+    #[command(after_help = "Example:\n  planemap diag sweep ws/stairs 3 --pixel 120,80")]
+    Sweep(planemap::diag::sweep::SweepArgs),
+    /// Where the photo-consistency sweep for plane hypotheses votes.
+    #[command(after_help = "Example:\n  planemap diag votes ws/stairs")]
+    Votes(planemap::diag::votes::VotesArgs),
+    /// Depth maps scored on planar and non-planar pixels, optionally split at a world box.
+    #[command(after_help = "Example:\n  planemap diag score-split ws/courtyard/gt out/depth out/sweep --box -9,9.95,0,9,10.05,4")]
+    ScoreSplit(planemap::diag::split::SplitArgs),
+}
+
+#[derive(Args)]
+struct ConfigArgs {
+    /// Print the default configuration as TOML, each key with its meaning, unit and range.
+    #[arg(long)]
+    defaults: bool,
+    /// Check a configuration file (and --set overrides) and print the effective configuration.
+    #[arg(long, value_name = "FILE")]
+    check: Option<PathBuf>,
+    /// Override a value (repeatable), e.g. --set planemap.lambda=0.5
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    overrides: Vec<String>,
 }
 
 #[derive(Subcommand)]
@@ -272,6 +314,8 @@ fn main() -> ExitCode {
         Command::Sweep(a) => sweep(a, &progress),
         Command::Classify(c) => classify(c, &progress),
         Command::Bench(a) => bench(a, &progress),
+        Command::Config(a) => config(a),
+        Command::Diag(d) => diag(d),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -327,7 +371,7 @@ fn run(a: RunArgs, progress: &Progress) -> Result<()> {
         Some(p) => Config::from_path(p)?,
         None => Config::default(),
     };
-    config = config.with_overrides(&a.overrides)?;
+    config = planemap::config::with_overrides(&config, &a.overrides)?;
     let (scene, gt) = if let Some(pmvs) = &a.pmvs {
         let scene = planemap::io::pmvs::read_pmvs(pmvs)?;
         (scene, a.gt.clone().or_else(|| sibling_gt(pmvs)))
@@ -426,9 +470,8 @@ fn demo(a: DemoArgs, progress: &Progress) -> Result<()> {
 }
 
 fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
-    use planemap::baseline::{
-        covisible_mask, scene_axes, split_scores, sweep_view_with_axes, texture_mask, SplitScores,
-    };
+    use planemap::baselines::{scene_axes, sweep_view_with_axes};
+    use planemap::eval::split::{texture_scores, SplitScores, TextureScores};
     let model = planemap::io::colmap::read_model(&a.model)?;
     let images = a.images.clone().or_else(|| {
         a.model
@@ -438,7 +481,8 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
     });
     let scene = model.to_scene(images.as_deref())?.undistorted();
     let gt = a.gt.clone().or_else(|| sibling_gt(&a.model));
-    let cfg = planemap::baseline::SweepBaselineConfig::default().with_overrides(&a.set)?;
+    let cfg = planemap::config::with_overrides(&planemap::photo::MultiSweepConfig::default(), &a.set)?;
+    cfg.validate()?;
     let axes = if cfg.axis_families {
         scene_axes(&scene, &cfg)
     } else {
@@ -468,7 +512,7 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
             .views
             .iter()
             .map(|v| {
-                let stem = planemap::pipeline::output_stem(&v.name);
+                let stem = planemap::io::output_stem(&v.name);
                 planemap::io::pfm::read_pfm_path(&gt.join("depth").join(format!("{stem}.pfm")))
                     .map(|d| d.data)
             })
@@ -478,13 +522,11 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
     let all_gt: Vec<&[f32]> = gt_depths.iter().map(|d| d.as_slice()).collect();
     std::fs::create_dir_all(a.output.join("depth"))?;
     let bar = progress.bar(indices.len() as u64, "plane sweep");
-    let mut total = SplitScores::default();
-    let mut surface_total: Option<SplitScores> = None;
-    let mut covisible_total: Option<SplitScores> = None;
+    let mut total = TextureScores::default();
     for &i in &indices {
         let view = &scene.views[i];
         let result = sweep_view_with_axes(&scene, &all, i, &axes, &cfg)?;
-        let stem = planemap::pipeline::output_stem(&view.name);
+        let stem = planemap::io::output_stem(&view.name);
         let depth = planemap::ImageF32 {
             width: view.camera.width,
             height: view.camera.height,
@@ -496,28 +538,14 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
             &depth,
         )?;
         if let Some(gt) = &gt {
-            let gt_depth = all_gt[i];
-            let mask = texture_mask(&all[i], 3, 0.02);
-            total.add(&split_scores(&result.depth, gt_depth, &mask, 0.01));
-            // The renderer's own textured-surface map, when the workspace has one.
-            let surface = gt.join("texture").join(format!("{stem}.png"));
-            if surface.is_file() {
-                let (_, _, textured) = planemap::io::labelpng::read_label_png(&surface)?;
-                let mask: Vec<bool> = textured.iter().map(|&t| t > 0).collect();
-                surface_total
-                    .get_or_insert_with(SplitScores::default)
-                    .add(&split_scores(&result.depth, gt_depth, &mask, 0.01));
-                let seen = covisible_mask(&scene.views, &all_gt, i, 0.01);
-                // Pixels only this view sees count as background here.
-                let gt_seen: Vec<f32> = gt_depth
-                    .iter()
-                    .zip(&seen)
-                    .map(|(&g, &s)| if s { g } else { 0.0 })
-                    .collect();
-                covisible_total
-                    .get_or_insert_with(SplitScores::default)
-                    .add(&split_scores(&result.depth, &gt_seen, &mask, 0.01));
-            }
+            total.add(&texture_scores(
+                &scene.views,
+                &all_gt,
+                i,
+                &all[i],
+                &result.depth,
+                gt,
+            )?);
         }
         bar.inc(1);
     }
@@ -539,14 +567,14 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
     if gt.is_some() {
         report(
             "pixels",
-            &total,
+            &total.image_texture,
             "texture read off the image (grey std over 7×7 ≥ 0.02)",
         );
     }
-    if let Some(s) = &surface_total {
+    if let Some(s) = &total.surfaces {
         report("surfaces", s, "the renderer's ground truth (gt/texture)");
     }
-    if let Some(s) = &covisible_total {
+    if let Some(s) = &total.covisible_surfaces {
         report(
             "surfaces",
             s,
@@ -635,7 +663,7 @@ fn classify(c: ClassifyCommand, progress: &Progress) -> Result<()> {
                     let image = view.load_image()?;
                     let points = cls::ViewPoints::from_scene(&scene, i);
                     let map = model.planarity_map(&image, Some(&points))?;
-                    let stem = planemap::pipeline::output_stem(&view.name);
+                    let stem = planemap::io::output_stem(&view.name);
                     map.write_png(&a.output.join(format!("{stem}.png")))?;
                     written += 1;
                     bar.inc(1);
@@ -658,7 +686,7 @@ fn classify(c: ClassifyCommand, progress: &Progress) -> Result<()> {
                         .with_context(|| format!("reading {}", f.display()))?
                         .to_rgb8();
                     let map = model.planarity_map(&planemap::ImageF32::from_rgb8(&rgb), None)?;
-                    let stem = planemap::pipeline::output_stem(&f.to_string_lossy());
+                    let stem = planemap::io::output_stem(&f.to_string_lossy());
                     map.write_png(&a.output.join(format!("{stem}.png")))?;
                     written += 1;
                 }
@@ -706,7 +734,7 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
         Some(p) => Config::from_path(p)?,
         None => Config::default(),
     };
-    cfg.planemap = config.with_overrides(&a.overrides)?;
+    cfg.planemap = planemap::config::with_overrides(&config, &a.overrides)?;
     let scenes = if a.scenes.is_empty() {
         vec![PathBuf::from("scenes")]
     } else {
@@ -720,4 +748,31 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
         a.output.display()
     );
     Ok(())
+}
+
+fn config(a: ConfigArgs) -> Result<()> {
+    let base = match &a.check {
+        Some(p) => Config::from_path(p)?,
+        None => Config::default(),
+    };
+    let cfg = planemap::config::with_overrides(&base, &a.overrides)?;
+    cfg.validate()?;
+    if a.defaults || a.check.is_some() || !a.overrides.is_empty() {
+        print!("{}", cfg.describe()?);
+    } else {
+        anyhow::bail!("nothing to do: give --defaults, or --check FILE and/or --set");
+    }
+    Ok(())
+}
+
+fn diag(d: DiagCommand) -> Result<()> {
+    use planemap::diag;
+    let r = match d {
+        DiagCommand::Energy(a) => diag::energy::run(&a),
+        DiagCommand::Nonplanar(a) => diag::nonplanar::run(&a),
+        DiagCommand::Sweep(a) => diag::sweep::run(&a),
+        DiagCommand::Votes(a) => diag::votes::run(&a),
+        DiagCommand::ScoreSplit(a) => diag::split::run(&a),
+    };
+    r.map_err(|e| anyhow::anyhow!(e))
 }

@@ -24,12 +24,13 @@ use crate::hypotheses::{
     HypothesesError, HypothesesInput, LabelledView, PlaneHypothesis,
 };
 use crate::io::atomic::write_atomic;
+use crate::io::output_stem;
 use crate::io::dense::{write_dense_map_path, DenseError};
 use crate::io::labelpng::{label_colors, write_label_png, LabelPngError};
 use crate::io::pfm::{write_pfm_path, PfmError};
 use crate::io::ply::{write_ply_points_path, PlyError, PlyPoints};
 use crate::normals::{estimate_normals_with_scale, NormalsConfig, NormalsError, OrientedCloud};
-use crate::planemap::nonplanar::{
+use crate::nonplanar::{
     normals_from_depth, ExtendedEnergy, NonplanarConfig, NonplanarView, NONPLANAR,
 };
 use crate::planemap::{PlanemapConfig, PlanemapEnergy, PlanemapError, ViewInputs};
@@ -44,6 +45,9 @@ pub enum PipelineError {
     /// The configuration is invalid.
     #[error("config: {0}")]
     Config(String),
+    /// A configuration file or override that cannot be read.
+    #[error("config: {0}")]
+    ConfigInput(#[from] crate::config::ConfigError),
     /// The scene cannot be used.
     #[error("scene: {0}")]
     Scene(String),
@@ -170,17 +174,10 @@ pub struct Config {
 }
 
 impl Config {
-    /// Parses a TOML config; errors name `origin` and the line.
+    /// Parses a TOML config onto the defaults ([`crate::config::from_toml_str`]); errors
+    /// name `origin` and the line.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Config, PipelineError> {
-        toml::from_str(text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
-            PipelineError::Config(match line {
-                Some(l) => format!("{origin}:{l}: {}", e.message()),
-                None => format!("{origin}: {}", e.message()),
-            })
-        })
+        Ok(crate::config::from_toml_str(text, origin)?)
     }
 
     /// Reads a TOML config file.
@@ -190,42 +187,10 @@ impl Config {
         Self::from_toml_str(&text, &path.display().to_string())
     }
 
-    /// Applies `section.key=value` overrides (value in TOML syntax; bare words are strings),
-    /// e.g. `planemap.lambda=0.5`.
-    pub fn with_overrides(&self, overrides: &[String]) -> Result<Config, PipelineError> {
-        let mut root = toml::Value::try_from(self)
-            .map_err(|e| PipelineError::Config(format!("cannot serialise config: {e}")))?;
-        for ov in overrides {
-            let (key, value) = ov.split_once('=').ok_or_else(|| {
-                PipelineError::Config(format!("override {ov:?}: expected section.key=value"))
-            })?;
-            let parsed: toml::Value = toml::from_str::<toml::Table>(&format!("v = {value}"))
-                .ok()
-                .and_then(|mut t| t.remove("v"))
-                .unwrap_or_else(|| toml::Value::String(value.to_string()));
-            let mut node = &mut root;
-            let parts: Vec<&str> = key.trim().split('.').collect();
-            for (i, part) in parts.iter().enumerate() {
-                let table = node.as_table_mut().ok_or_else(|| {
-                    PipelineError::Config(format!("override {ov:?}: {part:?} is not a section"))
-                })?;
-                if i + 1 == parts.len() {
-                    if !table.contains_key(*part) {
-                        return Err(PipelineError::Config(format!(
-                            "override {ov:?}: unknown key {key:?}"
-                        )));
-                    }
-                    table.insert(part.to_string(), parsed.clone());
-                    break;
-                }
-                node = table.get_mut(*part).ok_or_else(|| {
-                    PipelineError::Config(format!("override {ov:?}: unknown section {part:?}"))
-                })?;
-            }
-        }
-        let text = toml::to_string(&root)
-            .map_err(|e| PipelineError::Config(format!("cannot serialise config: {e}")))?;
-        Self::from_toml_str(&text, "overrides")
+    /// The configuration as TOML, each key preceded by its documentation (meaning, unit,
+    /// range) as comments: what `planemap config --defaults` prints.
+    pub fn describe(&self) -> Result<String, PipelineError> {
+        Ok(crate::config::describe(self, crate::config::CONFIG_DOCS, "")?)
     }
 
     /// Checks every stage's config.
@@ -615,7 +580,7 @@ pub fn label_view(
     };
     let unary_np = match &evidence {
         Some(ev) => Some(
-            crate::planemap::nonplanar::add_classifier_costs(
+            crate::nonplanar::add_classifier_costs(
                 &mut energy,
                 ev,
                 &cfg.nonplanar,
@@ -840,14 +805,6 @@ pub struct ViewSummary {
     pub resumed: bool,
 }
 
-/// `planemaps/NAME.png` etc. use the image name without its extension.
-pub fn output_stem(name: &str) -> String {
-    Path::new(name)
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| name.to_string())
-}
-
 /// Runs the whole chain on a scene and writes into `out`:
 ///
 /// ```text
@@ -1044,7 +1001,7 @@ pub fn run(
 /// Multi-view confirmation of the non-planar label ([`NonplanarConfig::consistent_views`]):
 /// in every view of `views` (labelled, with their sweep depths), a pixel whose sweep depth
 /// at least `consistent_views` other views of `views` confirm
-/// ([`crate::planemap::nonplanar::sweep_confirmations`]) and whose labelled depth differs
+/// ([`crate::nonplanar::sweep_confirmations`]) and whose labelled depth differs
 /// from it by more than `consistency_tolerance` becomes non-planar with the sweep's depth
 /// (and its normal); so does a pixel whose labelled depth is more than `gross_gap` off when
 /// that many views agree within `gross_tolerance`, away from depth jumps by
@@ -1070,7 +1027,7 @@ pub fn confirm_nonplanar(
     let counts: Vec<Vec<Vec<u16>>> = views
         .iter()
         .map(|v| {
-            crate::planemap::nonplanar::sweep_confirmation_tiers(
+            crate::nonplanar::sweep_confirmation_tiers(
                 scene,
                 v.view_index,
                 &sweeps,
@@ -1562,7 +1519,7 @@ fn write_planes_json(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::planemap::nonplanar::tests::corner_depths;
+    use crate::nonplanar::tests::corner_depths;
 
     /// Views of `scene` labelled 0 with depth `label(view, pixel, truth)` and the given
     /// sweep depths.
@@ -1703,7 +1660,7 @@ mod tests {
         let counts: Vec<Vec<u16>> = (0..3)
             .map(|i| {
                 let all: Vec<Option<&[f32]>> = depths.iter().map(|d| Some(d.as_slice())).collect();
-                crate::planemap::nonplanar::sweep_confirmations(&scene, i, &all, 0.01, 2)
+                crate::nonplanar::sweep_confirmations(&scene, i, &all, 0.01, 2)
             })
             .collect();
         for (i, v) in out.iter().enumerate() {

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
+use planemap::config::with_overrides;
 use planemap::eval::{evaluate, EvalConfig};
 use planemap::io::colmap::read_model;
 use planemap::io::dense::{read_depth_map_path, read_normal_map_path};
@@ -255,12 +256,9 @@ fn resume_reloads_the_crease_hypotheses_and_reproduces_a_view_exactly() {
 
 #[test]
 fn config_overrides_and_errors() {
-    let cfg = Config::default()
-        .with_overrides(&["planemap.lambda=0.25".to_string()])
-        .unwrap();
+    let cfg = with_overrides(&Config::default(), &["planemap.lambda=0.25".to_string()]).unwrap();
     assert_eq!(cfg.planemap.lambda, 0.25);
-    let err = Config::default()
-        .with_overrides(&["planemap.no_such_thing=1".to_string()])
+    let err = with_overrides(&Config::default(), &["planemap.no_such_thing=1".to_string()])
         .unwrap_err()
         .to_string();
     assert!(err.contains("no_such_thing"), "{err}");

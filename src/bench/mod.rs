@@ -1,16 +1,14 @@
 //! The synthetic-scene benchmark (`planemap bench`): renders each scene (cached), runs every
 //! method on it — planemap and its variants, the plane-sweep WTA baseline
-//! ([`crate::baseline::sweep_view`]) and per-view Delaunay interpolation of the sparse points
-//! ([`delaunay`]) — and scores all of them with the same [`metrics`] against the scene's
+//! ([`crate::baselines::sweep_view`]) and per-view Delaunay interpolation of the sparse points
+//! ([`crate::baselines::delaunay`]) — and scores all of them with the same [`crate::eval::metrics`] against the scene's
 //! ground truth. [`report`] writes results.json, Markdown tables and PNG charts.
 //!
 //! Every method's depth maps are fused by the same [`crate::pipeline::fuse`] (planemap's own
 //! run does exactly that), so the point-cloud scores compare depth maps, not fusion rules.
 
 pub mod cache;
-pub mod delaunay;
 pub mod font;
-pub mod metrics;
 pub mod report;
 
 use std::path::{Path, PathBuf};
@@ -21,12 +19,15 @@ use rayon::prelude::*;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::baseline::{scene_axes, sweep_view_with_axes, SweepBaselineConfig};
+use crate::baselines::{delaunay, scene_axes, sweep_view_with_axes};
+use crate::eval::metrics;
+use crate::photo::MultiSweepConfig;
 use crate::io::labelpng::read_label_png;
 use crate::io::pfm::read_pfm_path;
 use crate::io::ply::{read_ply_mesh_path, read_ply_points_path};
-use crate::pipeline::{self, output_stem, Config, FusionConfig, RunOptions, ViewPlanemap};
-use crate::planemap::nonplanar::NONPLANAR;
+use crate::io::output_stem;
+use crate::pipeline::{self, Config, FusionConfig, RunOptions, ViewPlanemap};
+use crate::nonplanar::NONPLANAR;
 use crate::progress::Progress;
 use crate::scene::Scene;
 
@@ -185,7 +186,7 @@ pub struct BenchConfig {
     /// planemap config (for both planemap methods).
     pub planemap: Config,
     /// Plane-sweep baseline settings.
-    pub sweep: SweepBaselineConfig,
+    pub sweep: MultiSweepConfig,
     /// Fusion of the baselines' depth maps (planemap uses `planemap.fusion`).
     pub fusion: FusionConfig,
     /// Point-cloud tolerance as a fraction of the scene's median ground-truth depth.
@@ -210,7 +211,7 @@ impl Default for BenchConfig {
     }
 }
 
-/// The plane-sweep settings of the benchmark: [`SweepBaselineConfig::default`] with
+/// The plane-sweep settings of the benchmark: [`MultiSweepConfig::default`] with
 /// [`BENCH_SWEEP_PLANES`] planes and [`BENCH_SWEEP_NEIGHBOURS`] neighbours, so that the whole
 /// suite fits its time budget on a shared 2-core machine (the sweep's cost is linear in
 /// planes × neighbours; sub-plane refinement keeps the depth continuous). `--sweep-planes`
@@ -219,13 +220,13 @@ impl Default for BenchConfig {
 /// baseline's default gained on 6 Dec): the recorded sweep figures and the non-planar
 /// comparisons of papers.md are against it, and re-running the suite's baseline is its own
 /// measurement.
-pub fn bench_sweep_config() -> SweepBaselineConfig {
-    let mut cfg = SweepBaselineConfig {
+pub fn bench_sweep_config() -> MultiSweepConfig {
+    let mut cfg = MultiSweepConfig {
         planes: BENCH_SWEEP_PLANES,
         neighbours: BENCH_SWEEP_NEIGHBOURS,
         // The recorded sweep column's 1 px step (the baseline's default is 0.7 since 6 Dec).
         max_step_px: 1.0,
-        ..SweepBaselineConfig::default()
+        ..MultiSweepConfig::default()
     };
     cfg.sweep.sgm = crate::photo::SgmConfig::default();
     cfg.sweep.photo.support_sigma_color = 0.0;

@@ -7,9 +7,9 @@ use std::path::Path;
 use image::{Rgb, RgbImage};
 
 use super::font::{draw_text, text_width, GLYPH};
-use super::metrics::has_depth;
+use crate::eval::metrics::has_depth;
 use super::{io_err, BenchError, BenchResults, Method, MethodResult};
-use crate::pipeline::output_stem;
+use crate::io::output_stem;
 use crate::scene::Scene;
 
 /// Writes `results.json`, `results.md`, `accuracy.png` and `time.png` into `out`.

@@ -14,7 +14,7 @@ use super::features::{cell_features, FeatureSpec, ViewPoints, FEATURE_DIM};
 use super::{ClassifyError, PlanarityModel};
 use crate::io::labelpng::read_label_png;
 use crate::io::pfm::read_pfm_path;
-use crate::pipeline::output_stem;
+use crate::io::output_stem;
 use crate::raster::ImageF32;
 use crate::scene::Scene;
 

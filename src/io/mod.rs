@@ -6,6 +6,9 @@ pub mod atomic;
 pub mod colmap;
 pub mod dense;
 pub mod labelpng;
+pub mod names;
 pub mod pfm;
 pub mod ply;
 pub mod pmvs;
+
+pub use names::output_stem;

@@ -12,16 +12,22 @@
 //!   plane, what the planemap data term consumes) and winner-takes-all plane-sweep depth
 //!   (Collins 1996; Gallup et al. 2007 for sweeps along the dominant axes);
 //! - [`sgm`]: optional semi-global aggregation of a family's cost volume before the
-//!   winner-takes-all (Hirschmüller 2008).
+//!   winner-takes-all (Hirschmüller 2008);
+//! - [`multisweep`]: the multi-family sweep driver — which plane families and neighbours a
+//!   view is swept with, densified to a pixel step;
+//! - [`texture`]: windowed grey-level deviation and the texture mask read off an image.
 
 pub mod aggregate;
 pub mod measures;
+pub mod multisweep;
 pub mod normalize;
 pub mod sgm;
 pub mod sweep;
+pub mod texture;
 
 pub use aggregate::{box_filter, Aggregation, Integral};
 pub use measures::{raw_cost, Measure};
+pub use multisweep::{family_step_px, sweep_setup, MultiSweepConfig, SweepSetup};
 pub use normalize::Normalization;
 pub use sgm::{semi_global, SgmConfig};
 pub use sweep::{
@@ -29,6 +35,7 @@ pub use sweep::{
     multi_family_sweep, plane_cost_volume, plane_sweep, refine_subplane, select_neighbours,
     winner_takes_all, CostVolume, FamilySweepResult, PlaneFamily, Spacing, SweepResult, NO_PLANE,
 };
+pub use texture::{local_std, texture_mask};
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -56,6 +63,9 @@ pub enum PhotoError {
     /// Inputs that leave nothing to compute (no neighbours, no planes, bad depth range).
     #[error("invalid input: {0}")]
     InvalidInput(String),
+    /// The view sees no sparse points, so there is no depth range to sweep.
+    #[error("the view sees no sparse points: no depth range to sweep")]
+    NoPoints,
 }
 
 /// How colour is used (tutorial §2.1 lists both strategies).

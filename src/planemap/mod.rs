@@ -22,7 +22,6 @@
 pub mod data;
 pub mod energy;
 pub mod lines;
-pub mod nonplanar;
 pub mod prune;
 pub mod smooth;
 

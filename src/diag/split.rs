@@ -1,11 +1,7 @@
 //! Scores depth maps against a `planemap synth` workspace's ground truth, split into planar
 //! and non-planar pixels (ground-truth plane id 0): share within 1 %, mean absolute error,
 //! and how the non-planar error divides between pixels too far by more than 20 %, too near
-//! by more than 20 %, and the rest — the figures issue 7 compares with the sweep baseline.
-//!
-//! ```sh
-//! cargo run --release --example score_split -- GT_DIR DEPTH_DIR [DEPTH_DIR ...]
-//! ```
+//! by more than 20 %, and the rest.
 //!
 //! `DEPTH_DIR` holds `NAME.pfm` per ground-truth `depth/NAME.pfm` (a run's `depth/`, its
 //! `sweep/`, or `planemap sweep`'s `depth/`); a view whose file is missing is skipped.
@@ -17,24 +13,45 @@
 //! its pixels (the image noise alone gives about 0.007 in the synthetic scenes) — e.g. to
 //! show that a surface carried no evidence of its depth. The workspace is `GT_DIR/..`.
 
+
 use std::path::PathBuf;
 
 use nalgebra::{Vector2, Vector3};
-use planemap::baseline::local_std;
-use planemap::bench::metrics::{depth_counts, has_depth, DepthCounts};
-use planemap::io::colmap::read_model;
-use planemap::io::labelpng::read_label_png;
-use planemap::io::pfm::read_pfm_path;
-use planemap::scene::View;
+
+use super::DiagResult;
+use crate::eval::metrics::{depth_counts, has_depth, DepthCounts};
+use crate::io::colmap::read_model;
+use crate::io::labelpng::read_label_png;
+use crate::io::pfm::read_pfm_path;
+use crate::photo::local_std;
+use crate::scene::View;
+
+/// Options of `planemap diag score-split`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SplitArgs {
+    /// The workspace's ground truth (`WORKSPACE/gt`).
+    pub gt: PathBuf,
+    /// Folders of `NAME.pfm` depth maps to score (a run's depth/, its sweep/, or
+    /// `planemap sweep`'s depth/).
+    #[arg(required = true)]
+    pub depth_dirs: Vec<PathBuf>,
+    /// Also split the planar pixels at a world box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX.
+    #[arg(long = "box", value_name = "XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX", value_parser = WorldBox::parse)]
+    pub world_box: Option<WorldBox>,
+}
 
 /// An axis-aligned world box.
-struct WorldBox {
-    min: Vector3<f64>,
-    max: Vector3<f64>,
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorldBox {
+    /// Lower corner.
+    pub min: Vector3<f64>,
+    /// Upper corner.
+    pub max: Vector3<f64>,
 }
 
 impl WorldBox {
-    fn parse(s: &str) -> Result<Self, String> {
+    /// Parses `XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX`.
+    pub fn parse(s: &str) -> Result<Self, String> {
         let v: Vec<f64> = s
             .split(',')
             .map(|t| t.trim().parse::<f64>())
@@ -51,7 +68,8 @@ impl WorldBox {
         })
     }
 
-    fn contains(&self, x: &Vector3<f64>) -> bool {
+    /// Whether `x` is inside (boundary included).
+    pub fn contains(&self, x: &Vector3<f64>) -> bool {
         (0..3).all(|i| x[i] >= self.min[i] && x[i] <= self.max[i])
     }
 }
@@ -77,29 +95,14 @@ struct Gross {
     near: (u64, f64),
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args: Vec<PathBuf> = Vec::new();
-    let mut world_box: Option<WorldBox> = None;
-    let mut it = std::env::args().skip(1);
-    while let Some(a) = it.next() {
-        if a == "--box" {
-            world_box = Some(WorldBox::parse(
-                &it.next().ok_or("--box needs six numbers")?,
-            )?);
-        } else {
-            args.push(PathBuf::from(a));
-        }
-    }
-    if args.len() < 2 {
-        eprintln!("usage: score_split GT_DIR DEPTH_DIR [DEPTH_DIR ...] [--box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX]");
-        std::process::exit(2);
-    }
-    let gt = &args[0];
+/// Runs the audit.
+pub fn run(args: &SplitArgs) -> DiagResult {
+    let gt = &args.gt;
     let ws = gt.join("..");
     // Per view name, which pixels' ground-truth surface points lie in the box (computed
     // once, shared by every DEPTH_DIR).
     let mut box_masks: std::collections::HashMap<String, Vec<bool>> = Default::default();
-    if let Some(b) = &world_box {
+    if let Some(b) = &args.world_box {
         let scene = read_model(&ws.join("sparse"))?
             .to_scene(Some(&ws.join("images")))?
             .undistorted();
@@ -133,7 +136,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .filter_map(|e| e.ok().map(|e| e.file_name()))
         .collect();
     names.sort();
-    for dir in &args[1..] {
+    for dir in &args.depth_dirs {
         let (mut planar, mut nonplanar) = (DepthCounts::default(), DepthCounts::default());
         let (mut planar_in, mut planar_out) = (DepthCounts::default(), DepthCounts::default());
         let mut gross = Gross::default();
@@ -202,7 +205,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             gross.near.0,
             share(gross.near.1),
         );
-        if world_box.is_some() {
+        if args.world_box.is_some() {
             println!(
                 "  planar pixels in the box {:.2} % within 1 % (of {}); outside it {:.2} % (of {})",
                 100.0 * planar_in.accuracy(1),

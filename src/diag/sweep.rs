@@ -2,11 +2,6 @@
 //! `planemap synth` workspace with the sweep's own measure and neighbours, beside the
 //! sweep's winner.
 //!
-//! ```sh
-//! cargo run --release --example sweep_audit -- WORKSPACE [VIEW ...] [--set key=value ...] \
-//!     [--nonplanar] [--pixel X,Y] [--families]
-//! ```
-//!
 //! Per view it prints:
 //! - per plane family, its plane count and how far consecutive planes move a pixel in the
 //!   neighbour images (median, 90th percentile, maximum; [`family_step_px`]) — a sweep
@@ -27,78 +22,74 @@
 //! aggregated and raw. `--families` prints the plane families (count, step, first and last
 //! plane) and skips the sweep.
 
+
 use std::path::PathBuf;
 
-use planemap::baseline::{
-    family_step_px, scene_axes, sweep_setup, texture_mask, SweepBaselineConfig,
+use super::{DiagResult, Workspace};
+use crate::baselines::scene_axes;
+use crate::eval::read_gt_planes;
+use crate::geometry::Plane;
+use crate::nonplanar::NonplanarConfig;
+use crate::photo::{
+    family_step_px, multi_family_sweep, plane_cost_volume, sweep_setup, texture_mask, Aggregation,
+    MultiSweepConfig,
 };
-use planemap::eval::read_gt_planes;
-use planemap::geometry::Plane;
-use planemap::io::colmap::read_model;
-use planemap::io::labelpng::read_label_png;
-use planemap::io::pfm::read_pfm_path;
-use planemap::photo::{multi_family_sweep, plane_cost_volume, Aggregation};
-use planemap::pipeline::output_stem;
-use planemap::planemap::nonplanar::NonplanarConfig;
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let Some(ws) = args.next().map(PathBuf::from) else {
-        eprintln!(
-            "usage: sweep_audit WORKSPACE [VIEW ...] [--set key=value ...] [--nonplanar] [--pixel X,Y] [--families]"
-        );
-        std::process::exit(2);
-    };
-    let mut views = Vec::new();
-    let mut overrides = Vec::new();
-    let mut probe: Option<(usize, usize)> = None;
-    let mut nonplanar = false;
-    let mut families_only = false;
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--set" => overrides.push(args.next().ok_or("--set needs key=value")?),
-            "--nonplanar" => nonplanar = true,
-            "--families" => families_only = true,
-            "--pixel" => {
-                let v = args.next().ok_or("--pixel needs X,Y")?;
-                let (x, y) = v.split_once(',').ok_or("--pixel needs X,Y")?;
-                probe = Some((x.parse()?, y.parse()?));
-            }
-            _ => views.push(a.parse::<usize>()?),
-        }
-    }
-    let base = if nonplanar {
+/// Options of `planemap diag sweep`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SweepArgs {
+    /// A `planemap synth` workspace (sparse/, images/, gt/).
+    pub workspace: PathBuf,
+    /// Views to audit (indices in image-id order; default: all).
+    pub views: Vec<usize>,
+    /// Override a sweep setting (repeatable; keys as in `planemap sweep --set`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub overrides: Vec<String>,
+    /// Audit the non-planar label's sweep (`nonplanar.sweep`) instead of the baseline's.
+    #[arg(long)]
+    pub nonplanar: bool,
+    /// For this pixel, the truth's and the winner's cost per neighbour, aggregated and raw.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    pub pixel: Option<(usize, usize)>,
+    /// Print the plane families only, without sweeping.
+    #[arg(long)]
+    pub families: bool,
+}
+
+fn parse_pixel(s: &str) -> Result<(usize, usize), String> {
+    let (x, y) = s.split_once(',').ok_or("expected X,Y")?;
+    let n = |t: &str| t.trim().parse::<usize>().map_err(|e| format!("{t:?}: {e}"));
+    Ok((n(x)?, n(y)?))
+}
+
+/// Runs the audit.
+pub fn run(args: &SweepArgs) -> DiagResult {
+    let base = if args.nonplanar {
         NonplanarConfig::default().sweep_config()
     } else {
-        SweepBaselineConfig::default()
+        MultiSweepConfig::default()
     };
-    let cfg = base.with_overrides(&overrides)?;
+    let cfg = crate::config::with_overrides(&base, &args.overrides)?;
+    cfg.validate()?;
+    let probe = args.pixel;
     let min_confidence = NonplanarConfig::default().min_confidence as f32;
-    let scene = read_model(&ws.join("sparse"))?
-        .to_scene(Some(&ws.join("images")))?
-        .undistorted();
-    if views.is_empty() {
-        views = (0..scene.views.len()).collect();
-    }
-    let images: Vec<_> = scene
-        .views
-        .iter()
-        .map(|v| v.load_undistorted_image())
-        .collect::<Result<_, _>>()?;
+    let ws = Workspace::open(&args.workspace)?;
+    let scene = &ws.scene;
+    let views = ws.views(&args.views)?;
+    let images = ws.images()?;
     let axes = if cfg.axis_families {
-        scene_axes(&scene, &cfg)
+        scene_axes(scene, &cfg)
     } else {
         Vec::new()
     };
-    let gt_planes = read_gt_planes(&ws.join("gt"))?;
+    let gt_planes = read_gt_planes(&ws.gt())?;
     let mut totals = [0usize; 4];
     for &v in &views {
         let view = &scene.views[v];
-        let stem = output_stem(&view.name);
-        let gt_depth = read_pfm_path(&ws.join("gt/depth").join(format!("{stem}.pfm")))?;
-        let (_, _, gt_ids) = read_label_png(&ws.join("gt/planes").join(format!("{stem}.png")))?;
-        let setup = sweep_setup(&scene, v, &axes, &cfg)?;
-        let pairs = setup.pairs(&scene, &images);
+        let gt_depth = ws.gt_pfm("depth", v)?;
+        let gt_ids = ws.gt_plane_ids(v)?;
+        let setup = sweep_setup(scene, v, &axes, &cfg)?;
+        let pairs = setup.pairs(scene, &images);
         let nbr_views: Vec<_> = pairs.iter().map(|(nb, _)| *nb).collect();
         println!("{}:", view.name);
         for (f, fam) in setup.families.iter().enumerate() {
@@ -120,7 +111,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 last.offset,
             );
         }
-        if families_only {
+        if args.families {
             continue;
         }
         let swept = multi_family_sweep(

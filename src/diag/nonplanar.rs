@@ -3,57 +3,50 @@
 //! the label's sweep depth is right (within 1 %) and confident — the pixels the label should
 //! take.
 //!
-//! ```sh
-//! cargo run --release --example nonplanar_audit -- WORKSPACE [VIEW ...] [--set key=value ...]
-//! ```
-//!
 //! Per view: how many such pixels there are, and the mean over them of the non-planar
 //! label's classifier and photo costs against the cheapest plane label's planar data cost
 //! (visibility + photo), its classifier cost and its fit-gap cost. Classifier overconfidence,
 //! a photo term on a different scale, or a plane that matches the images as well: the split
 //! says which.
 
+
 use std::path::PathBuf;
 
-use planemap::io::colmap::read_model;
-use planemap::io::labelpng::read_label_png;
-use planemap::io::pfm::read_pfm_path;
-use planemap::pipeline::{self, output_stem, Config};
-use planemap::planemap::nonplanar::NonplanarView;
+use super::{DiagResult, Workspace};
+use crate::nonplanar::NonplanarView;
+use crate::pipeline::{self, Config};
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let Some(ws) = args.next().map(PathBuf::from) else {
-        eprintln!("usage: nonplanar_audit WORKSPACE [VIEW ...] [--set key=value ...]");
-        std::process::exit(2);
-    };
-    let mut views = Vec::new();
+/// Options of `planemap diag nonplanar`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct NonplanarArgs {
+    /// A `planemap synth` workspace (sparse/, images/, gt/).
+    pub workspace: PathBuf,
+    /// Views to audit (indices in image-id order; default: all).
+    pub views: Vec<usize>,
+    /// Override a planemap config value (repeatable); `nonplanar.enabled=true` is implied.
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    pub overrides: Vec<String>,
+}
+
+/// Runs the audit.
+pub fn run(args: &NonplanarArgs) -> DiagResult {
     let mut overrides = vec!["nonplanar.enabled=true".to_string()];
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--set" => overrides.push(args.next().ok_or("--set needs key=value")?),
-            _ => views.push(a.parse::<usize>()?),
-        }
-    }
-    let cfg = Config::default().with_overrides(&overrides)?;
-    let scene = read_model(&ws.join("sparse"))?
-        .to_scene(Some(&ws.join("images")))?
-        .undistorted();
-    if views.is_empty() {
-        views = (0..scene.views.len()).collect();
-    }
-    let prepared = pipeline::prepare(&scene, &cfg)?;
+    overrides.extend(args.overrides.iter().cloned());
+    let cfg = crate::config::with_overrides(&Config::default(), &overrides)?;
+    let ws = Workspace::open(&args.workspace)?;
+    let scene = &ws.scene;
+    let views = ws.views(&args.views)?;
+    let prepared = pipeline::prepare(scene, &cfg)?;
     let images = prepared.images.as_ref().ok_or("no images")?;
     let model = prepared.classifier.as_ref().ok_or("no classifier")?;
     let np = &cfg.nonplanar;
     for &v in &views {
         let view = &scene.views[v];
-        let stem = output_stem(&view.name);
-        let gt = read_pfm_path(&ws.join("gt/depth").join(format!("{stem}.pfm")))?;
-        let (_, _, ids) = read_label_png(&ws.join("gt/planes").join(format!("{stem}.png")))?;
-        let energy = pipeline::view_energy(&scene, &prepared, v, &images[v], &cfg)?;
+        let gt = ws.gt_pfm("depth", v)?;
+        let ids = ws.gt_plane_ids(v)?;
+        let energy = pipeline::view_energy(scene, &prepared, v, &images[v], &cfg)?;
         let ev = NonplanarView::compute(
-            &scene,
+            scene,
             images,
             v,
             &prepared.axes.directions,

@@ -1,5 +1,13 @@
-//! Evaluation against synthetic ground truth (`gt/` of a `planemap synth` workspace): depth
-//! accuracy and plane-label accuracy per view and overall.
+//! Every score planemap and its baselines are measured with, against the ground truth of a
+//! `planemap synth` workspace (`gt/`):
+//!
+//! - this module: a run's depth accuracy and plane-label accuracy per view and overall (what
+//!   `planemap run` prints when ground truth is at hand);
+//! - [`metrics`]: the benchmark's metrics — depth accuracy at several thresholds,
+//!   completeness, normal error, plane segmentation, point-cloud accuracy / completeness /
+//!   F-score against the ground-truth mesh;
+//! - [`split`]: depth accuracy split by texture (the sweep baseline's scoring) and the
+//!   pixels another view also sees.
 
 use std::path::Path;
 
@@ -9,9 +17,13 @@ use thiserror::Error;
 use crate::hypotheses::PlaneHypothesis;
 use crate::io::labelpng::{read_label_png, LabelPngError};
 use crate::io::pfm::{read_pfm_path, PfmError};
-use crate::pipeline::{output_stem, ViewPlanemap};
+use crate::io::output_stem;
+use crate::pipeline::ViewPlanemap;
 use crate::scene::Scene;
 use crate::workspace::GtPlaneRecord;
+
+pub mod metrics;
+pub mod split;
 
 /// Errors of loading ground truth.
 #[derive(Debug, Error)]

@@ -1,11 +1,6 @@
 //! Why is a view's planemap wrong? Scores planemap's labelling and a ground-truth labelling
 //! under the same energy, on a `planemap synth` workspace.
 //!
-//! ```sh
-//! cargo run --release --example energy_audit -- WORKSPACE [VIEW ...] [--set key=value ...] \
-//!     [--creases FILE] [--erode N] [--pairs K] [--maps DIR [--photo-pair A,B]]
-//! ```
-//!
 //! Per view it prints:
 //! - coverage: the share of pixels with ground-truth depth that some plane hypothesis (all
 //!   of them / the labels kept for this view) explains within 1 % — what the labelling could
@@ -30,15 +25,43 @@
 //! oracle's photo cost is higher, green where lower). `--photo-pair A,B` adds
 //! `photo_VIEW_A_B.png`, plane A's photo cost minus plane B's (red: A dearer).
 
+
 use std::path::PathBuf;
 
-use planemap::io::colmap::read_model;
-use planemap::io::pfm::read_pfm_path;
-use planemap::pipeline::{self, output_stem, Config};
-use planemap::planemap::PlanemapEnergy;
 use planemap_solvers::{
     Connectivity, DataCost, ExpansionConfig, LabelOrder, Mrf, Smoothness as SolverSmoothness,
 };
+
+use super::{DiagResult, Workspace};
+use crate::pipeline::{self, Config};
+use crate::planemap::PlanemapEnergy;
+
+/// Options of `planemap diag energy`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct EnergyArgs {
+    /// A `planemap synth` workspace (sparse/, images/, gt/).
+    pub workspace: PathBuf,
+    /// Views to audit (indices in image-id order; default: all).
+    pub views: Vec<usize>,
+    /// Override a planemap config value (repeatable).
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    pub overrides: Vec<String>,
+    /// A run's crease_hypotheses.json: audit the second labelling's energy.
+    #[arg(long)]
+    pub creases: Option<PathBuf>,
+    /// Constrain the oracle only where the (2N+1)² window around a pixel agrees on its label.
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub erode: usize,
+    /// Print the smoothness split by kind of pair and the K dearest plane pairs.
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    pub pairs: usize,
+    /// Write smooth_VIEW.png and lines_VIEW.png maps into this folder.
+    #[arg(long, value_name = "DIR")]
+    pub maps: Option<PathBuf>,
+    /// With --maps: photo_VIEW_A_B.png, plane A's photo cost minus plane B's.
+    #[arg(long, value_name = "A,B", value_delimiter = ',', num_args = 2, requires = "maps")]
+    pub photo_pair: Option<Vec<u32>>,
+}
 
 /// Energy of a labelling split into (visibility data, photo data, smoothness).
 fn split(e: &PlanemapEnergy, vis: &PlanemapEnergy, labels: &[u32]) -> (f64, f64, f64) {
@@ -115,48 +138,20 @@ fn print_pair_split(e: &PlanemapEnergy, labels: &[u32], name: &str, top: usize) 
     }
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut args = std::env::args().skip(1);
-    let Some(ws) = args.next().map(PathBuf::from) else {
-        eprintln!("usage: energy_audit WORKSPACE [VIEW ...] [--set key=value ...] [--creases FILE] [--erode N] [--pairs K] [--maps DIR [--photo-pair A,B]]");
-        std::process::exit(2);
-    };
-    let mut views = Vec::new();
-    let mut overrides = Vec::new();
-    let mut maps: Option<String> = None;
-    let mut creases: Option<String> = None;
-    let mut erode = 0usize;
-    let mut top_pairs = 0usize;
-    let mut pair: Option<Vec<u32>> = None;
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--set" => overrides.push(args.next().ok_or("--set needs key=value")?),
-            "--creases" => creases = Some(args.next().ok_or("--creases needs a file")?),
-            "--erode" => erode = args.next().ok_or("--erode needs N")?.parse()?,
-            "--pairs" => top_pairs = args.next().ok_or("--pairs needs K")?.parse()?,
-            "--maps" => maps = Some(args.next().ok_or("--maps needs a directory")?),
-            "--photo-pair" => {
-                let v = args.next().ok_or("--photo-pair needs A,B")?;
-                let ids: Vec<u32> = v.split(',').map(str::parse).collect::<Result<_, _>>()?;
-                if ids.len() != 2 {
-                    return Err("--photo-pair needs two plane ids A,B".into());
-                }
-                pair = Some(ids);
-            }
-            _ => views.push(a.parse::<usize>()?),
-        }
-    }
-    let cfg = Config::default().with_overrides(&overrides)?;
-    let scene = read_model(&ws.join("sparse"))?
-        .to_scene(Some(&ws.join("images")))?
-        .undistorted();
-    if views.is_empty() {
-        views = (0..scene.views.len()).collect();
-    }
-    let mut prepared = pipeline::prepare(&scene, &cfg)?;
-    if let Some(f) = &creases {
+/// Runs the audit.
+pub fn run(args: &EnergyArgs) -> DiagResult {
+    let cfg = crate::config::with_overrides(&Config::default(), &args.overrides)?;
+    let ws = Workspace::open(&args.workspace)?;
+    let scene = &ws.scene;
+    let views = ws.views(&args.views)?;
+    let erode = args.erode;
+    let top_pairs = args.pairs;
+    let maps = &args.maps;
+    let pair = &args.photo_pair;
+    let mut prepared = pipeline::prepare(scene, &cfg)?;
+    if let Some(f) = &args.creases {
         let base = prepared.hypotheses.len();
-        let extra = pipeline::read_crease_hypotheses(std::path::Path::new(f), &scene, base)
+        let extra = pipeline::read_crease_hypotheses(f, scene, base)
             .ok_or("cannot read the crease hypotheses")?;
         prepared.add_crease_hypotheses(extra);
     }
@@ -165,21 +160,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     vis_cfg.planemap.photo_weight = 0.0;
     println!(
         "{}: R = {:.4}, {} hypotheses",
-        ws.display(),
+        ws.root.display(),
         prepared.scale,
         prepared.hypotheses.len()
     );
     for &v in &views {
         let image = scene.views[v].load_undistorted_image()?;
-        let stem = output_stem(&scene.views[v].name);
-        let gt = read_pfm_path(&ws.join("gt/depth").join(format!("{stem}.pfm")))?;
-        let e = pipeline::view_energy(&scene, &prepared, v, &image, &cfg)?;
-        let vis = pipeline::view_energy(&scene, &prepared, v, &image, &vis_cfg)?;
+        let gt = ws.gt_pfm("depth", v)?;
+        let e = pipeline::view_energy(scene, &prepared, v, &image, &cfg)?;
+        let vis = pipeline::view_energy(scene, &prepared, v, &image, &vis_cfg)?;
         assert_eq!(
             e.labels, vis.labels,
             "pruning must not depend on the photo term"
         );
-        let result = pipeline::label_view(&scene, &prepared, v, &image, &cfg)?;
+        let result = pipeline::label_view(scene, &prepared, v, &image, &cfg)?;
         let local_of = |g: u32| e.labels.iter().position(|&l| l == g).map(|i| i as u32);
         let ours: Vec<u32> = result
             .labels
@@ -187,12 +181,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .map(|&g| local_of(g).unwrap_or(0))
             .collect();
         let n = e.num_pixels();
-        let gt_normals = read_pfm_path(&ws.join("gt/normals").join(format!("{stem}.pfm")))?;
+        let gt_normals = ws.gt_pfm("normals", v)?;
         // A label is right at p if its depth is within 1 % of ground truth and its normal
         // within 10° of ground truth's (so a floor plane crossing the ceiling's depth on some
         // row does not count).
         let right =
-            |p: usize, plane: &planemap::geometry::Plane, world_normal: &nalgebra::Vector3<f64>| {
+            |p: usize, plane: &crate::geometry::Plane, world_normal: &nalgebra::Vector3<f64>| {
                 let z = gt.data[p] as f64;
                 let ray = e.smoothness.pixel_ray(p);
                 let g = nalgebra::Vector3::new(
@@ -345,7 +339,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let (x, y) = ((p % e.width as usize) as u32, (p / e.width as usize) as u32);
                 im.put_pixel(x, y, image::Rgb(px));
             }
-            im.save(format!("{dir}/lines_{v}.png"))?;
+            im.save(dir.join(format!("lines_{v}.png")))?;
         }
         if let Some(dir) = &maps {
             // Per-pixel smoothness paid (right and down pairs) and labels, for both labellings.
@@ -379,7 +373,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             c += e.pairwise(p, p + w, lab[p], lab[p + w]);
                         }
                         let v = (c / (2.0 * e.lambda * 10.0) * 255.0).min(255.0) as u8;
-                        let base = planemap::io::labelpng::label_color(
+                        let base = crate::io::labelpng::label_color(
                             e.labels[lab[p] as usize] as u16 + 1,
                         );
                         let px = if v > 0 {
@@ -391,7 +385,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     }
                 }
             }
-            im.save(format!("{dir}/smooth_{v}.png"))?;
+            im.save(dir.join(format!("smooth_{v}.png")))?;
         }
         if let (Some(dir), Some(g)) = (&maps, &pair) {
             // Photo cost of global plane a minus that of b: red where a is dearer, green cheaper.
@@ -412,7 +406,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         image::Rgb(px),
                     );
                 }
-                im.save(format!("{dir}/photo_{v}_{}_{}.png", g[0], g[1]))?;
+                im.save(dir.join(format!("photo_{v}_{}_{}.png", g[0], g[1])))?;
             }
         }
         // Which labels the two disagree on most, with the per-pixel data difference.
