@@ -89,7 +89,9 @@ enum DiagCommand {
     #[command(after_help = "Example:\n  planemap diag votes ws/stairs")]
     Votes(planemap::diag::votes::VotesArgs),
     /// Depth maps scored on planar and non-planar pixels, optionally split at a world box.
-    #[command(after_help = "Example:\n  planemap diag score-split ws/courtyard/gt out/depth out/sweep --box -9,9.95,0,9,10.05,4")]
+    #[command(
+        after_help = "Example:\n  planemap diag score-split ws/courtyard/gt out/depth out/sweep --box -9,9.95,0,9,10.05,4"
+    )]
     ScoreSplit(planemap::diag::split::SplitArgs),
 }
 
@@ -481,7 +483,8 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
     });
     let scene = model.to_scene(images.as_deref())?.undistorted();
     let gt = a.gt.clone().or_else(|| sibling_gt(&a.model));
-    let cfg = planemap::config::with_overrides(&planemap::photo::MultiSweepConfig::default(), &a.set)?;
+    let cfg =
+        planemap::config::with_overrides(&planemap::photo::MultiSweepConfig::default(), &a.set)?;
     cfg.validate()?;
     let axes = if cfg.axis_families {
         scene_axes(&scene, &cfg)

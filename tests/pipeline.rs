@@ -258,9 +258,12 @@ fn resume_reloads_the_crease_hypotheses_and_reproduces_a_view_exactly() {
 fn config_overrides_and_errors() {
     let cfg = with_overrides(&Config::default(), &["planemap.lambda=0.25".to_string()]).unwrap();
     assert_eq!(cfg.planemap.lambda, 0.25);
-    let err = with_overrides(&Config::default(), &["planemap.no_such_thing=1".to_string()])
-        .unwrap_err()
-        .to_string();
+    let err = with_overrides(
+        &Config::default(),
+        &["planemap.no_such_thing=1".to_string()],
+    )
+    .unwrap_err()
+    .to_string();
     assert!(err.contains("no_such_thing"), "{err}");
     let err = Config::from_toml_str("[planemap]\nlambda = \"x\"\n", "my.toml")
         .unwrap_err()

@@ -95,4 +95,3 @@ pub fn sweep_view_with_axes(
     let setup = sweep_setup(scene, index, axes, cfg).map_err(photo_err)?;
     setup.sweep(scene, images, index, cfg).map_err(photo_err)
 }
-

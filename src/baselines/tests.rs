@@ -1,51 +1,61 @@
 //! Tests of the sweep baseline and of the multi-family sweep setup it runs on.
 
 use super::*;
-use crate::geometry::Plane;
-use crate::photo::{fronto_parallel_planes, refine_subplane, Spacing, SweepResult, SweepSetup};
-use crate::scene::Scene;
-use nalgebra::Vector3;
 use crate::config::with_overrides;
+use crate::geometry::Plane;
 use crate::photo::{family_step_px, sweep_setup, MultiSweepConfig};
+use crate::photo::{fronto_parallel_planes, refine_subplane, Spacing, SweepResult, SweepSetup};
 use crate::photo::{winner_takes_all, CostVolume};
+use crate::scene::Scene;
 use crate::scene::View;
+use nalgebra::Vector3;
 
 #[test]
 fn overrides_reach_nested_fields_and_bad_ones_are_named() {
-    let cfg = with_overrides(&MultiSweepConfig::default(), &[
+    let cfg = with_overrides(
+        &MultiSweepConfig::default(),
+        &[
             "sweep.photo.window_radius=5".into(),
             "axis_families=false".into(),
             "neighbours=6".into(),
             "extra_directions=2".into(),
-        ])
-        .unwrap();
+        ],
+    )
+    .unwrap();
     assert_eq!(cfg.sweep.photo.window_radius, 5);
     assert_eq!(cfg.extra_directions, 2);
     assert_eq!(MultiSweepConfig::default().extra_directions, 2);
     assert!(!cfg.axis_families);
     assert_eq!(cfg.neighbours, 6);
     assert_eq!(cfg.planes, MultiSweepConfig::default().planes);
-    let err = with_overrides(&MultiSweepConfig::default(), &["no_such_key=1".into()])
-        .unwrap_err();
+    let err = with_overrides(&MultiSweepConfig::default(), &["no_such_key=1".into()]).unwrap_err();
     assert!(err.to_string().contains("no_such_key"), "{err}");
-    let err = with_overrides(&MultiSweepConfig::default(), &["sweep.photo.best_k=0".into()])
-        .unwrap_err();
+    let err = with_overrides(
+        &MultiSweepConfig::default(),
+        &["sweep.photo.best_k=0".into()],
+    )
+    .unwrap()
+    .validate()
+    .unwrap_err();
     assert!(err.to_string().contains("best_k"), "{err}");
     // Semi-global aggregation: on by default, off with paths = 0, bad counts named.
     assert_eq!(MultiSweepConfig::default().sweep.sgm.paths, 8);
-    let off = with_overrides(&MultiSweepConfig::default(), &["sweep.sgm.paths=0".into()])
-        .unwrap();
+    let off = with_overrides(&MultiSweepConfig::default(), &["sweep.sgm.paths=0".into()]).unwrap();
     assert!(!off.sweep.sgm.enabled());
     let err = with_overrides(&MultiSweepConfig::default(), &["sweep.sgm.paths=3".into()])
+        .unwrap()
+        .validate()
         .unwrap_err();
     assert!(err.to_string().contains("sgm.paths"), "{err}");
     // The sub-plane fit reads the aggregated costs unless told otherwise.
     assert!(!MultiSweepConfig::default().sweep.sgm.subplane_on_local);
-    let local_fit = with_overrides(&MultiSweepConfig::default(), &["sweep.sgm.subplane_on_local=true".into()])
-        .unwrap();
+    let local_fit = with_overrides(
+        &MultiSweepConfig::default(),
+        &["sweep.sgm.subplane_on_local=true".into()],
+    )
+    .unwrap();
     assert!(local_fit.sweep.sgm.subplane_on_local);
-    assert!(with_overrides(&MultiSweepConfig::default(), &["planes".into()])
-        .is_err());
+    assert!(with_overrides(&MultiSweepConfig::default(), &["planes".into()]).is_err());
 }
 
 /// Angle (degrees) between `d` and the nearest world axis, sign ignored.
@@ -181,8 +191,7 @@ fn depth_range_reaches_a_pillar_beside_the_camera() {
             depths[0].max(depths[depths.len() - 1]),
         );
         let stem = std::path::Path::new(&view.name).with_extension("pfm");
-        let gt =
-            crate::io::pfm::read_pfm_path(&dir.path().join("gt/depth").join(&stem)).unwrap();
+        let gt = crate::io::pfm::read_pfm_path(&dir.path().join("gt/depth").join(&stem)).unwrap();
         let seen: Vec<f32> = gt.data.iter().copied().filter(|&z| z > 0.0).collect();
         let outside = seen
             .iter()
@@ -388,7 +397,6 @@ fn coarse_families_are_densified_to_the_step_target() {
 /// Two views of the floor z = 0, the second shifted sideways: view 0's pixels whose
 /// floor point falls outside view 1 are not covisible, the rest are, unless view 1's
 /// depth there says something nearer hides the floor.
-
 
 /// A cost that is a parabola in inverse depth with its minimum between two planes:
 /// WTA is off by up to half a plane step, the refinement recovers the true depth.

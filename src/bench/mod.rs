@@ -21,13 +21,13 @@ use thiserror::Error;
 
 use crate::baselines::{delaunay, scene_axes, sweep_view_with_axes};
 use crate::eval::metrics;
-use crate::photo::MultiSweepConfig;
 use crate::io::labelpng::read_label_png;
+use crate::io::output_stem;
 use crate::io::pfm::read_pfm_path;
 use crate::io::ply::{read_ply_mesh_path, read_ply_points_path};
-use crate::io::output_stem;
-use crate::pipeline::{self, Config, FusionConfig, RunOptions, ViewPlanemap};
 use crate::nonplanar::NONPLANAR;
+use crate::photo::MultiSweepConfig;
+use crate::pipeline::{self, Config, FusionConfig, RunOptions, ViewPlanemap};
 use crate::progress::Progress;
 use crate::scene::Scene;
 

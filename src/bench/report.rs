@@ -7,8 +7,8 @@ use std::path::Path;
 use image::{Rgb, RgbImage};
 
 use super::font::{draw_text, text_width, GLYPH};
-use crate::eval::metrics::has_depth;
 use super::{io_err, BenchError, BenchResults, Method, MethodResult};
+use crate::eval::metrics::has_depth;
 use crate::io::output_stem;
 use crate::scene::Scene;
 

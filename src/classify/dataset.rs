@@ -13,8 +13,8 @@ use std::path::{Path, PathBuf};
 use super::features::{cell_features, FeatureSpec, ViewPoints, FEATURE_DIM};
 use super::{ClassifyError, PlanarityModel};
 use crate::io::labelpng::read_label_png;
-use crate::io::pfm::read_pfm_path;
 use crate::io::output_stem;
+use crate::io::pfm::read_pfm_path;
 use crate::raster::ImageF32;
 use crate::scene::Scene;
 

@@ -25,7 +25,6 @@
 //! oracle's photo cost is higher, green where lower). `--photo-pair A,B` adds
 //! `photo_VIEW_A_B.png`, plane A's photo cost minus plane B's (red: A dearer).
 
-
 use std::path::PathBuf;
 
 use planemap_solvers::{
@@ -59,7 +58,13 @@ pub struct EnergyArgs {
     #[arg(long, value_name = "DIR")]
     pub maps: Option<PathBuf>,
     /// With --maps: photo_VIEW_A_B.png, plane A's photo cost minus plane B's.
-    #[arg(long, value_name = "A,B", value_delimiter = ',', num_args = 2, requires = "maps")]
+    #[arg(
+        long,
+        value_name = "A,B",
+        value_delimiter = ',',
+        num_args = 2,
+        requires = "maps"
+    )]
     pub photo_pair: Option<Vec<u32>>,
 }
 
@@ -373,9 +378,8 @@ pub fn run(args: &EnergyArgs) -> DiagResult {
                             c += e.pairwise(p, p + w, lab[p], lab[p + w]);
                         }
                         let v = (c / (2.0 * e.lambda * 10.0) * 255.0).min(255.0) as u8;
-                        let base = crate::io::labelpng::label_color(
-                            e.labels[lab[p] as usize] as u16 + 1,
-                        );
+                        let base =
+                            crate::io::labelpng::label_color(e.labels[lab[p] as usize] as u16 + 1);
                         let px = if v > 0 {
                             [v.max(60), 0, 0]
                         } else {

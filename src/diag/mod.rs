@@ -85,8 +85,9 @@ impl Workspace {
     /// `gt/planes/STEM.png` of view `v`: the ground-truth plane id per pixel (0 = non-planar).
     pub fn gt_plane_ids(&self, v: usize) -> DiagResult<Vec<u16>> {
         let stem = output_stem(&self.scene.views[v].name);
-        let (_, _, ids) =
-            crate::io::labelpng::read_label_png(&self.gt().join("planes").join(format!("{stem}.png")))?;
+        let (_, _, ids) = crate::io::labelpng::read_label_png(
+            &self.gt().join("planes").join(format!("{stem}.png")),
+        )?;
         Ok(ids)
     }
 }

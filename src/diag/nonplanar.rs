@@ -9,7 +9,6 @@
 //! a photo term on a different scale, or a plane that matches the images as well: the split
 //! says which.
 
-
 use std::path::PathBuf;
 
 use super::{DiagResult, Workspace};

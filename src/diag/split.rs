@@ -13,7 +13,6 @@
 //! its pixels (the image noise alone gives about 0.007 in the synthetic scenes) — e.g. to
 //! show that a surface carried no evidence of its depth. The workspace is `GT_DIR/..`.
 
-
 use std::path::PathBuf;
 
 use nalgebra::{Vector2, Vector3};

@@ -22,7 +22,6 @@
 //! aggregated and raw. `--families` prints the plane families (count, step, first and last
 //! plane) and skips the sweep.
 
-
 use std::path::PathBuf;
 
 use super::{DiagResult, Workspace};

@@ -16,8 +16,8 @@ use thiserror::Error;
 
 use crate::hypotheses::PlaneHypothesis;
 use crate::io::labelpng::{read_label_png, LabelPngError};
-use crate::io::pfm::{read_pfm_path, PfmError};
 use crate::io::output_stem;
+use crate::io::pfm::{read_pfm_path, PfmError};
 use crate::pipeline::ViewPlanemap;
 use crate::scene::Scene;
 use crate::workspace::GtPlaneRecord;

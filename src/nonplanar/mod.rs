@@ -32,11 +32,11 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::planemap::{PlanemapConfig, PlanemapEnergy, PlanemapError};
-use crate::photo::{sweep_setup, texture_mask, MultiSweepConfig};
 use crate::classify::{PlanarityMap, PlanarityModel, ViewPoints};
 use crate::geometry::Plane;
 use crate::photo::plane_cost_volume;
+use crate::photo::{sweep_setup, texture_mask, MultiSweepConfig};
+use crate::planemap::{PlanemapConfig, PlanemapEnergy, PlanemapError};
 use crate::raster::ImageF32;
 use crate::scene::Scene;
 

@@ -14,8 +14,7 @@ pub(crate) fn corner_depths() -> (Scene, Vec<Vec<f32>>) {
                 .map(|p| {
                     let xy = nalgebra::Vector2::new((p % w) as f64 + 0.5, (p / w) as f64 + 0.5);
                     let (o, d) = v.ray(&xy);
-                    cast(&o, &d)
-                        .map_or(0.0, |(_, x)| v.project(&x).map_or(0.0, |(_, z)| z as f32))
+                    cast(&o, &d).map_or(0.0, |(_, x)| v.project(&x).map_or(0.0, |(_, z)| z as f32))
                 })
                 .collect()
         })
@@ -188,8 +187,7 @@ fn tiers_counted_together_equal_each_tier_alone() {
 #[test]
 fn normals_of_a_fronto_parallel_and_a_slanted_plane() {
     let (w, h) = (8, 6);
-    let ray =
-        |x: usize, y: usize| Vector3::new(x as f64 * 0.1 - 0.4, y as f64 * 0.1 - 0.3, 1.0);
+    let ray = |x: usize, y: usize| Vector3::new(x as f64 * 0.1 - 0.4, y as f64 * 0.1 - 0.3, 1.0);
     let flat = vec![2.0f32; w * h];
     let n = normals_from_depth(&flat, w, h, ray);
     for v in &n {

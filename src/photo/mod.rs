@@ -8,9 +8,12 @@
 //!   step) with the tutorial's thresholds as defaults;
 //! - [`aggregate`]: box (integral images), bilateral, guided and weighted-median filtering of
 //!   cost slices;
-//! - [`sweep`]: neighbour selection, plane families, the plane cost volume (cost per pixel and
-//!   plane, what the planemap data term consumes) and winner-takes-all plane-sweep depth
-//!   (Collins 1996; Gallup et al. 2007 for sweeps along the dominant axes);
+//! - [`neighbours`]: which views a view is matched against;
+//! - [`families`]: fronto-parallel and axis-aligned plane families;
+//! - [`volume`]: the plane cost volume (cost per pixel and plane, what the planemap data term
+//!   consumes), computed by the costing core in `cost`;
+//! - [`sweep`]: winner-takes-all plane-sweep depth, sub-plane refinement and the sweep over
+//!   several families (Collins 1996; Gallup et al. 2007 for sweeps along the dominant axes);
 //! - [`sgm`]: optional semi-global aggregation of a family's cost volume before the
 //!   winner-takes-all (Hirschmüller 2008);
 //! - [`multisweep`]: the multi-family sweep driver — which plane families and neighbours a
@@ -18,24 +21,33 @@
 //! - [`texture`]: windowed grey-level deviation and the texture mask read off an image.
 
 pub mod aggregate;
+mod cost;
+pub mod families;
 pub mod measures;
 pub mod multisweep;
+pub mod neighbours;
 pub mod normalize;
 pub mod sgm;
 pub mod sweep;
 pub mod texture;
+pub mod volume;
 
 pub use aggregate::{box_filter, Aggregation, Integral};
+pub use families::{
+    axis_planes, axis_sweep_planes, fronto_parallel_depths, fronto_parallel_planes, PlaneFamily,
+    Spacing,
+};
 pub use measures::{raw_cost, Measure};
 pub use multisweep::{family_step_px, sweep_setup, MultiSweepConfig, SweepSetup};
+pub use neighbours::select_neighbours;
 pub use normalize::Normalization;
 pub use sgm::{semi_global, SgmConfig};
 pub use sweep::{
-    axis_planes, axis_sweep_planes, fronto_parallel_depths, fronto_parallel_planes,
-    multi_family_sweep, plane_cost_volume, plane_sweep, refine_subplane, select_neighbours,
-    winner_takes_all, CostVolume, FamilySweepResult, PlaneFamily, Spacing, SweepResult, NO_PLANE,
+    multi_family_sweep, pixel_on_plane, plane_sweep, refine_subplane, winner_takes_all,
+    FamilySweepResult, SweepResult, NO_PLANE,
 };
 pub use texture::{local_std, texture_mask};
+pub use volume::{plane_cost_volume, CostVolume};
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -244,6 +256,9 @@ impl SweepConfig {
         self.sgm.validate()
     }
 }
+
+#[cfg(test)]
+mod sweep_tests;
 
 #[cfg(test)]
 mod tests {

@@ -291,8 +291,7 @@ pub fn sweep_setup(
         }
     };
     let mut families = vec![PlaneFamily {
-        planes: dense(cfg.planes, &|n| fronto_parallel_planes(view, near, far, n))
-            ?,
+        planes: dense(cfg.planes, &|n| fronto_parallel_planes(view, near, far, n))?,
         spacing: Spacing::InverseDepth,
     }];
     // The points an axis family's range is read from: every sparse point inside the view's

@@ -19,7 +19,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::sweep::CostVolume;
+use super::volume::CostVolume;
 use super::PhotoError;
 use crate::raster::ImageF32;
 

@@ -1,0 +1,125 @@
+//! The run configuration: one section per stage, as `--config FILE` and `--set` read it.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::PipelineError;
+use crate::axes::AxesConfig;
+use crate::hypotheses::HypothesesConfig;
+use crate::nonplanar::NonplanarConfig;
+use crate::normals::NormalsConfig;
+use crate::planemap::PlanemapConfig;
+
+/// Options of the α-expansion solve.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct SolverConfig {
+    /// Maximum α-expansion cycles (sweeps over all labels).
+    pub max_cycles: usize,
+    /// Integer cost units per unit of real cost: costs are rounded to integers so the
+    /// max-flow is exact. 1000 keeps rounding below 0.1% of the smallest useful cost.
+    pub cost_scale: f64,
+}
+
+impl Default for SolverConfig {
+    fn default() -> Self {
+        SolverConfig {
+            max_cycles: 10,
+            cost_scale: 1000.0,
+        }
+    }
+}
+
+/// Options of the fused point cloud.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct FusionConfig {
+    /// Keep a pixel's point only if at least this many other views agree with its depth.
+    pub min_consistent_views: usize,
+    /// Relative depth tolerance for "agree": |z_j − z| ≤ tolerance · z.
+    pub depth_tolerance: f64,
+    /// Take every `stride`-th pixel in x and y (1 = all).
+    pub stride: u32,
+}
+
+impl Default for FusionConfig {
+    fn default() -> Self {
+        FusionConfig {
+            min_consistent_views: 1,
+            depth_tolerance: 0.01,
+            stride: 2,
+        }
+    }
+}
+
+/// A whole run's configuration: one section per stage (TOML).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    /// Normals for points without them.
+    pub normals: NormalsConfig,
+    /// Dominant axes.
+    pub axes: AxesConfig,
+    /// Plane hypotheses.
+    pub hypotheses: HypothesesConfig,
+    /// Per-view planemap energy.
+    pub planemap: PlanemapConfig,
+    /// α-expansion.
+    pub solver: SolverConfig,
+    /// Fused point cloud.
+    pub fusion: FusionConfig,
+    /// The classifier-driven "non-planar" label (off by default).
+    pub nonplanar: NonplanarConfig,
+}
+
+impl Config {
+    /// Parses a TOML config onto the defaults ([`crate::config::from_toml_str`]); errors
+    /// name `origin` and the line.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Config, PipelineError> {
+        Ok(crate::config::from_toml_str(text, origin)?)
+    }
+
+    /// Reads a TOML config file.
+    pub fn from_path(path: &Path) -> Result<Config, PipelineError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| PipelineError::Config(format!("{}: {e}", path.display())))?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// The configuration as TOML, each key preceded by its documentation (meaning, unit,
+    /// range) as comments: what `planemap config --defaults` prints.
+    pub fn describe(&self) -> Result<String, PipelineError> {
+        Ok(crate::config::describe(
+            self,
+            crate::config::CONFIG_DOCS,
+            "",
+        )?)
+    }
+
+    /// Checks every stage's config.
+    pub fn validate(&self) -> Result<(), PipelineError> {
+        self.normals.validate()?;
+        self.axes.validate()?;
+        self.hypotheses.validate()?;
+        self.planemap
+            .validate()
+            .map_err(|e| PipelineError::Config(format!("planemap: {e}")))?;
+        self.nonplanar
+            .validate()
+            .map_err(|e| PipelineError::Config(e.to_string()))?;
+        if !(self.solver.cost_scale.is_finite() && self.solver.cost_scale > 0.0) {
+            return Err(PipelineError::Config(
+                "solver.cost_scale must be positive".into(),
+            ));
+        }
+        let tolerance_ok =
+            self.fusion.depth_tolerance.is_finite() && self.fusion.depth_tolerance > 0.0;
+        if self.fusion.stride == 0 || !tolerance_ok {
+            return Err(PipelineError::Config(
+                "fusion.stride must be ≥ 1 and fusion.depth_tolerance > 0".into(),
+            ));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,234 @@
+//! The global stages, once per scene: sampling scale, normals, dominant axes and plane
+//! hypotheses (and, with the non-planar label, the classifier and the images).
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::{Config, PipelineError};
+use crate::axes::{dominant_axes, refine_axes_from_planes, AxisPlane, DominantAxes};
+use crate::classify::PlanarityModel;
+use crate::hypotheses::{
+    plane_hypotheses, sweep_hypotheses, CreaseHypothesis, HypothesesInput, PlaneHypothesis,
+};
+use crate::nonplanar::NonplanarView;
+use crate::normals::{estimate_normals_with_scale, OrientedCloud};
+use crate::raster::ImageF32;
+use crate::scale::sampling_scale;
+use crate::scene::Scene;
+
+/// The global (all-view) results: scale, oriented points, axes, plane hypotheses.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// Sampling scale R (3D size of a pixel at the points' depths).
+    pub scale: f64,
+    /// Normals and confidences of the sparse points.
+    pub oriented: OrientedCloud,
+    /// Dominant directions.
+    pub axes: DominantAxes,
+    /// Plane hypotheses; a planemap label `l` is hypothesis `l`. The sparse-point ones come
+    /// first, then those of the photo-consistency sweep.
+    pub hypotheses: Vec<PlaneHypothesis>,
+    /// How many of `hypotheses` (the last ones) come from the photo-consistency sweep
+    /// ([`crate::hypotheses::sweep_hypotheses`]); they are offered in every view where they
+    /// lie in front of the camera, since few sparse points support them.
+    pub sweep_hypotheses: usize,
+    /// One entry per crease hypothesis ([`crate::hypotheses::crease_hypotheses`]) — the very
+    /// last of `hypotheses`, after the sweep's, added by [`run`] after a first labelling —
+    /// in order: the indices of the views that see it, the only views offered it. Empty
+    /// after [`prepare`].
+    pub crease_views: Vec<Vec<usize>>,
+    /// The undistorted images of all views, when a stage needs the neighbours' images (the
+    /// sweep or the photo-consistency data term); `None` otherwise.
+    pub images: Option<Vec<ImageF32>>,
+    /// The planar/non-planar classifier, loaded when `nonplanar.enabled`.
+    pub classifier: Option<PlanarityModel>,
+    /// Per view, the non-planar label's classifier map and sweep once computed
+    /// ([`NonplanarView::sweep`]): they do not depend on the plane labels, so the labelling
+    /// after the crease hypotheses reuses the first pass's. Empty without the label.
+    pub nonplanar_sweeps: Vec<std::sync::OnceLock<NonplanarView>>,
+    /// Seconds spent per stage: scale + normals, axes, hypotheses.
+    pub seconds: [f64; 3],
+}
+
+impl Prepared {
+    /// Appends crease hypotheses (their ids continue `hypotheses`'), each offered in the
+    /// views that see it.
+    pub fn add_crease_hypotheses(&mut self, creases: Vec<CreaseHypothesis>) {
+        for c in creases {
+            self.hypotheses.push(c.hypothesis);
+            self.crease_views.push(c.views);
+        }
+    }
+}
+
+/// The sparse-point stages: sampling scale, normals, dominant axes and the plane hypotheses
+/// of the points, with the axes refit from the points on their hypotheses
+/// (`cfg.axes.refine.iterations` rounds). No images are read.
+#[derive(Debug, Clone)]
+pub struct SparseStages {
+    /// Sampling scale R.
+    pub scale: f64,
+    /// Normals and confidences of the sparse points.
+    pub oriented: OrientedCloud,
+    /// Dominant directions after the refit.
+    pub axes: DominantAxes,
+    /// Plane hypotheses of the points along the refit axes.
+    pub hypotheses: Vec<PlaneHypothesis>,
+    /// Seconds spent: scale + normals, axes, hypotheses (with the refit).
+    pub seconds: [f64; 3],
+}
+
+pub(super) fn hyp_input<'a>(
+    scene: &'a Scene,
+    oriented: &'a OrientedCloud,
+    axes: &'a DominantAxes,
+    scale: f64,
+) -> HypothesesInput<'a> {
+    HypothesesInput {
+        positions: &scene.cloud.positions,
+        normals: &oriented.normals,
+        confidence: &oriented.confidence,
+        axes,
+        scale,
+    }
+}
+
+/// Runs the sparse-point stages ([`SparseStages`]) on an (undistorted) scene; [`prepare`]
+/// starts with them, and the plane-sweep baseline takes its sweep directions from them.
+pub fn sparse_stages(scene: &Scene, cfg: &Config) -> Result<SparseStages, PipelineError> {
+    if scene.views.is_empty() {
+        return Err(PipelineError::Scene("the scene has no views".into()));
+    }
+    if scene.cloud.is_empty() {
+        return Err(PipelineError::Scene(
+            "the scene has no sparse points: plane hypotheses come from them".into(),
+        ));
+    }
+    scene
+        .cloud
+        .validate(scene.views.len())
+        .map_err(|e| PipelineError::Scene(e.to_string()))?;
+    let t = Instant::now();
+    let scale = sampling_scale(scene)?;
+    let oriented = estimate_normals_with_scale(scene, scale, &cfg.normals)?;
+    let t_normals = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut axes = dominant_axes(&oriented, &cfg.axes)?;
+    if cfg.axes.camera_vertical {
+        let m = axes.num_manhattan.min(axes.directions.len());
+        if let Some(up) = crate::axes::camera_vertical_given(&scene.views, &axes.directions[..m]) {
+            axes.complete_with_vertical(&up, &oriented.normals, cfg.axes.refine_angle_deg);
+        }
+    }
+    let t_axes = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut hypotheses =
+        plane_hypotheses(&hyp_input(scene, &oriented, &axes, scale), &cfg.hypotheses)?;
+    // Axis refit from the points on the hypotheses, then hypotheses along the refit axes.
+    for _ in 0..cfg.axes.refine.iterations {
+        let planes: Vec<AxisPlane> = hypotheses
+            .iter()
+            .filter_map(|h| {
+                let axis = h.axis?;
+                let sign = h.plane.normal.dot(&axes.directions[axis]).signum();
+                Some(AxisPlane {
+                    axis,
+                    offset: sign * h.plane.offset,
+                })
+            })
+            .collect();
+        axes = refine_axes_from_planes(
+            &axes,
+            &scene.cloud.positions,
+            &oriented.normals,
+            &planes,
+            scale,
+            &cfg.axes.refine,
+        );
+        hypotheses = plane_hypotheses(&hyp_input(scene, &oriented, &axes, scale), &cfg.hypotheses)?;
+    }
+    Ok(SparseStages {
+        scale,
+        oriented,
+        axes,
+        hypotheses,
+        seconds: [t_normals, t_axes, t.elapsed().as_secs_f64()],
+    })
+}
+
+/// Runs the global stages on an (undistorted) scene.
+pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
+    let SparseStages {
+        scale,
+        oriented,
+        axes,
+        mut hypotheses,
+        seconds,
+    } = sparse_stages(scene, cfg)?;
+    let t = Instant::now();
+    let input = hyp_input(scene, &oriented, &axes, scale);
+    // Images are loaded once for all views when a stage matches views against each other.
+    let wants_images =
+        cfg.hypotheses.sweep.enabled || cfg.planemap.photo_weight > 0.0 || cfg.nonplanar.enabled;
+    let images = if wants_images && scene.views.iter().all(|v| v.image_path.is_some()) {
+        Some(
+            scene
+                .views
+                .par_iter()
+                .map(|v| v.load_undistorted_image())
+                .collect::<Result<Vec<_>, _>>()?,
+        )
+    } else {
+        None
+    };
+    let mut num_sweep = 0;
+    if let (true, Some(imgs)) = (cfg.hypotheses.sweep.enabled, &images) {
+        let (extra, _) = sweep_hypotheses(scene, imgs, &input, &hypotheses, &cfg.hypotheses)?;
+        num_sweep = extra.len();
+        hypotheses.extend(extra);
+    }
+    if hypotheses.is_empty() {
+        return Err(PipelineError::Scene(format!(
+            "no plane hypothesis has enough support ({} points, {} dominant directions)",
+            scene.cloud.len(),
+            axes.directions.len()
+        )));
+    }
+    let classifier = if cfg.nonplanar.enabled {
+        if images.is_none() {
+            return Err(PipelineError::Scene(
+                "nonplanar.enabled needs the images (a view has no image path)".into(),
+            ));
+        }
+        let model = match &cfg.nonplanar.model {
+            Some(path) => crate::classify::read_model_path(path),
+            None => crate::classify::default_model(),
+        };
+        Some(model.map_err(|e| PipelineError::Config(format!("nonplanar.model: {e}")))?)
+    } else {
+        None
+    };
+    let nonplanar_sweeps = match classifier {
+        Some(_) => (0..scene.views.len())
+            .map(|_| std::sync::OnceLock::new())
+            .collect(),
+        None => Vec::new(),
+    };
+    Ok(Prepared {
+        classifier,
+        nonplanar_sweeps,
+        scale,
+        oriented,
+        axes,
+        hypotheses,
+        sweep_hypotheses: num_sweep,
+        crease_views: Vec::new(),
+        images,
+        seconds: [
+            seconds[0],
+            seconds[1],
+            seconds[2] + t.elapsed().as_secs_f64(),
+        ],
+    })
+}
