@@ -732,7 +732,7 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
     cfg.cache_dir = a.cache.clone();
     cfg.error_maps = !a.no_maps;
     cfg.sweep.planes = a.sweep_planes;
-    cfg.sweep.neighbours = a.sweep_neighbours;
+    cfg.sweep.photo.neighbours = a.sweep_neighbours;
     let config = match &a.config {
         Some(p) => Config::from_path(p)?,
         None => Config::default(),

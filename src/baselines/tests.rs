@@ -15,46 +15,43 @@ fn overrides_reach_nested_fields_and_bad_ones_are_named() {
     let cfg = with_overrides(
         &MultiSweepConfig::default(),
         &[
-            "sweep.photo.window_radius=5".into(),
+            "photo.window_radius=5".into(),
             "axis_families=false".into(),
-            "neighbours=6".into(),
+            "photo.neighbours=6".into(),
             "extra_directions=2".into(),
         ],
     )
     .unwrap();
-    assert_eq!(cfg.sweep.photo.window_radius, 5);
+    assert_eq!(cfg.photo.window_radius, 5);
     assert_eq!(cfg.extra_directions, 2);
     assert_eq!(MultiSweepConfig::default().extra_directions, 2);
     assert!(!cfg.axis_families);
-    assert_eq!(cfg.neighbours, 6);
+    assert_eq!(cfg.photo.neighbours, 6);
     assert_eq!(cfg.planes, MultiSweepConfig::default().planes);
     let err = with_overrides(&MultiSweepConfig::default(), &["no_such_key=1".into()]).unwrap_err();
     assert!(err.to_string().contains("no_such_key"), "{err}");
-    let err = with_overrides(
-        &MultiSweepConfig::default(),
-        &["sweep.photo.best_k=0".into()],
-    )
-    .unwrap()
-    .validate()
-    .unwrap_err();
+    let err = with_overrides(&MultiSweepConfig::default(), &["photo.best_k=0".into()])
+        .unwrap()
+        .validate()
+        .unwrap_err();
     assert!(err.to_string().contains("best_k"), "{err}");
     // Semi-global aggregation: on by default, off with paths = 0, bad counts named.
-    assert_eq!(MultiSweepConfig::default().sweep.sgm.paths, 8);
-    let off = with_overrides(&MultiSweepConfig::default(), &["sweep.sgm.paths=0".into()]).unwrap();
-    assert!(!off.sweep.sgm.enabled());
-    let err = with_overrides(&MultiSweepConfig::default(), &["sweep.sgm.paths=3".into()])
+    assert_eq!(MultiSweepConfig::default().sgm.paths, 8);
+    let off = with_overrides(&MultiSweepConfig::default(), &["sgm.paths=0".into()]).unwrap();
+    assert!(!off.sgm.enabled());
+    let err = with_overrides(&MultiSweepConfig::default(), &["sgm.paths=3".into()])
         .unwrap()
         .validate()
         .unwrap_err();
     assert!(err.to_string().contains("sgm.paths"), "{err}");
     // The sub-plane fit reads the aggregated costs unless told otherwise.
-    assert!(!MultiSweepConfig::default().sweep.sgm.subplane_on_local);
+    assert!(!MultiSweepConfig::default().sgm.subplane_on_local);
     let local_fit = with_overrides(
         &MultiSweepConfig::default(),
-        &["sweep.sgm.subplane_on_local=true".into()],
+        &["sgm.subplane_on_local=true".into()],
     )
     .unwrap();
-    assert!(local_fit.sweep.sgm.subplane_on_local);
+    assert!(local_fit.sgm.subplane_on_local);
     assert!(with_overrides(&MultiSweepConfig::default(), &["planes".into()]).is_err());
 }
 

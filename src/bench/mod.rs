@@ -216,21 +216,22 @@ impl Default for BenchConfig {
 /// suite fits its time budget on a shared 2-core machine (the sweep's cost is linear in
 /// planes × neighbours; sub-plane refinement keeps the depth continuous). `--sweep-planes`
 /// and `--sweep-neighbours` restore the full setting. The benchmark's sweep stays the plain
-/// winner-takes-all over box NCC (no semi-global aggregation nor support weights, which the
-/// baseline's default gained on 6 Dec): the recorded sweep figures and the non-planar
-/// comparisons of papers.md are against it, and re-running the suite's baseline is its own
-/// measurement.
+/// winner-takes-all over box NCC at a 1 px plane step (no semi-global aggregation nor
+/// support weights, which the baseline's own default has): the recorded sweep figures and
+/// the non-planar comparisons are against it.
 pub fn bench_sweep_config() -> MultiSweepConfig {
-    let mut cfg = MultiSweepConfig {
+    let base = MultiSweepConfig::default();
+    MultiSweepConfig {
         planes: BENCH_SWEEP_PLANES,
-        neighbours: BENCH_SWEEP_NEIGHBOURS,
-        // The recorded sweep column's 1 px step (the baseline's default is 0.7 since 6 Dec).
         max_step_px: 1.0,
-        ..MultiSweepConfig::default()
-    };
-    cfg.sweep.sgm = crate::photo::SgmConfig::default();
-    cfg.sweep.photo.support_sigma_color = 0.0;
-    cfg
+        photo: crate::photo::PhotoConfig {
+            neighbours: BENCH_SWEEP_NEIGHBOURS,
+            support_sigma_color: 0.0,
+            ..base.photo
+        },
+        sgm: crate::photo::SgmConfig::default(),
+        ..base
+    }
 }
 
 /// Fronto-parallel planes of the benchmark's sweep (the baseline's own default is 128).

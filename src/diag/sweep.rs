@@ -17,7 +17,7 @@
 //!   median relative error.
 //!
 //! `--nonplanar` audits the sweep of the non-planar label (`NonplanarConfig::sweep_config`)
-//! instead of the baseline's; `--set` overrides either (keys as in `planemap sweep --set`).
+//! instead of the baseline's; `--set` overrides either (keys as in `planemap sweep --set`; with --nonplanar, as under `nonplanar.sweep`).
 //! `--pixel X,Y` adds, for that pixel, the truth's and the winner's cost per neighbour,
 //! aggregated and raw. `--families` prints the plane families (count, step, first and last
 //! plane) and skips the sweep.
@@ -64,7 +64,7 @@ fn parse_pixel(s: &str) -> Result<(usize, usize), String> {
 /// Runs the audit.
 pub fn run(args: &SweepArgs) -> DiagResult {
     let base = if args.nonplanar {
-        NonplanarConfig::default().sweep_config()
+        NonplanarConfig::default().sweep
     } else {
         MultiSweepConfig::default()
     };
@@ -118,7 +118,7 @@ pub fn run(args: &SweepArgs) -> DiagResult {
             &images[v],
             &pairs,
             &setup.families,
-            &cfg.sweep,
+            &cfg.sweep_config(),
             cfg.subplane,
         )?;
         let (result, family) = (swept.sweep, swept.family);
@@ -136,8 +136,8 @@ pub fn run(args: &SweepArgs) -> DiagResult {
                     .ok_or_else(|| format!("plane id {id} is not in gt/planes.json"))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let truth = plane_cost_volume(view, &images[v], &pairs, &planes, &cfg.sweep.photo)?;
-        let mut raw_cfg = cfg.sweep.photo;
+        let truth = plane_cost_volume(view, &images[v], &pairs, &planes, &cfg.photo)?;
+        let mut raw_cfg = cfg.photo;
         raw_cfg.aggregation = Aggregation::None;
         let truth_raw = plane_cost_volume(view, &images[v], &pairs, &planes, &raw_cfg)?;
 
@@ -208,10 +208,10 @@ pub fn run(args: &SweepArgs) -> DiagResult {
                 truth.pixel_costs(p)[k]
             );
             for (agg, label) in [
-                (cfg.sweep.photo.aggregation, "aggregated"),
+                (cfg.photo.aggregation, "aggregated"),
                 (Aggregation::None, "raw"),
             ] {
-                let mut one = cfg.sweep.photo;
+                let mut one = cfg.photo;
                 one.best_k = 1;
                 one.min_evidence = 1;
                 one.aggregation = agg;

@@ -43,8 +43,6 @@ pub struct SweepHypothesesConfig {
     pub min_step_r: f64,
     /// ... and an axis never has more than this many (the sweep's time grows with them).
     pub max_fine_planes: usize,
-    /// Neighbour views matched against each view ([`crate::photo::select_neighbours`]).
-    pub neighbours: usize,
     /// Sweep on images reduced by this integer factor (box filter); 1 = full resolution.
     pub downsample: u32,
     /// ... or by more, so that the reduced images are at most this wide (0 = no limit):
@@ -52,19 +50,19 @@ pub struct SweepHypothesesConfig {
     /// every scene. At 640×480 this means 4×.
     pub max_width: u32,
     /// A pixel votes only if its best cost (NCC cost in [0, 1]) is at most this.
-    pub max_cost: f32,
+    pub max_cost: f64,
     /// ... and the next best plane (another axis, or the same axis more than two steps
     /// away) costs at least this much more.
-    pub min_margin: f32,
+    pub min_margin: f64,
     /// ... and its grey-level standard deviation over the matching window is at least this.
-    pub texture_threshold: f32,
+    pub texture_threshold: f64,
     /// An offset becomes a hypothesis with at least this many votes in total, as a fraction
     /// of one (downsampled) view's pixels.
     pub min_vote_fraction: f64,
     /// ... from at least this many views (each contributing at least a tenth of the votes
     /// threshold).
     pub min_views: usize,
-    /// Photo-consistency measure and window.
+    /// Photo-consistency scoring: 5×5 NCC against 3 neighbour views.
     pub photo: crate::photo::PhotoConfig,
     /// Snap a sweep plane to a concentration of sparse points near it: the sweep's offsets
     /// are only as fine as its step (≥ `step_r` R on reduced images), but a small plane
@@ -89,7 +87,6 @@ impl Default for SweepHypothesesConfig {
             step_quantile: 0.9,
             min_step_r: 0.5,
             max_fine_planes: 1024,
-            neighbours: 3,
             downsample: 2,
             max_width: 160,
             max_cost: 0.25,
@@ -98,6 +95,7 @@ impl Default for SweepHypothesesConfig {
             min_vote_fraction: 0.004,
             min_views: 2,
             photo: crate::photo::PhotoConfig {
+                neighbours: 3,
                 window_radius: 2,
                 ..Default::default()
             },
@@ -114,7 +112,7 @@ impl SweepHypothesesConfig {
         if !(self.step_r > 0.0 && self.step_r.is_finite()) {
             return bad(format!("step_r = {} must be positive", self.step_r));
         }
-        if self.max_planes_per_axis < 2 || self.neighbours == 0 || self.min_views == 0 {
+        if self.max_planes_per_axis < 2 || self.photo.neighbours == 0 || self.min_views == 0 {
             return bad("max_planes_per_axis ≥ 2, neighbours ≥ 1, min_views ≥ 1 expected".into());
         }
         let fine_ok = self.max_step_px >= 0.0
@@ -356,7 +354,7 @@ pub fn sweep_hypotheses(
         })
         .collect();
     let neighbours_of: Vec<Vec<usize>> = (0..scene.views.len())
-        .map(|v| select_neighbours(scene, v, sc.neighbours))
+        .map(|v| select_neighbours(scene, v, sc.photo.neighbours))
         .collect::<Result<_, _>>()
         .map_err(|e| HypothesesError::Input(e.to_string()))?;
     // Sub-planes per offset bin: where a bin's step moves pixels further than the 5×5 NCC
@@ -465,7 +463,7 @@ pub fn sweep_hypotheses(
                 best[p * nax + k] = (bc, (i0 + bi) as u32, second, sub_offset(bj));
             }
         }
-        let texture = texture_mask(ref_img, sc.photo.window_radius, sc.texture_threshold);
+        let texture = texture_mask(ref_img, sc.photo.window_radius, sc.texture_threshold as f32);
         let mut votes: Vec<Vec<u32>> = nbins.iter().map(|&n| vec![0; n]).collect();
         for p in 0..npx {
             if !texture[p] {
@@ -485,7 +483,7 @@ pub fn sweep_hypotheses(
                 .enumerate()
                 .filter(|&(j, _)| j != k)
                 .fold(second, |a, (_, b)| a.min(b.0));
-            if bc <= sc.max_cost && other - bc >= sc.min_margin {
+            if bc <= sc.max_cost as f32 && other - bc >= sc.min_margin as f32 {
                 votes[k][bi as usize] += 1;
                 offset_sum[k][bi as usize] += offset;
             }

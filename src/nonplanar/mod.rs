@@ -58,20 +58,12 @@ pub struct NonplanarConfig {
     pub beta: f64,
     /// ε in the classifier's costs (bounds a confident mistake's cost).
     pub epsilon: f64,
-    /// Fronto-parallel planes of the sweep that gives the label its depth.
-    pub sweep_planes: usize,
-    /// Planes per dominant-axis family of that sweep.
-    pub sweep_axis_planes: usize,
-    /// Neighbour views of that sweep.
-    pub sweep_neighbours: usize,
-    /// Adaptive support weights of that sweep's NCC and of the fit gap's plane costs
-    /// (`photo.support_sigma_color`, Yoon & Kweon 2006; 0 = the box window). 0.15 sharpens
-    /// the silhouettes of trees and columns: courtyard / statues non-planar pixels within
-    /// 1 % 48.7 → 49.3 / 37.2 → 38.1 %, planar 89.4 → 89.4 / 95.3 → 95.6 % (3 Dec), at about
-    /// 1.2× the sweep's time. On by default since 5 Dec: with K = 3 and β = 0.5 it is what
-    /// keeps the halo of a statue's depth off the facade behind it (statues at K = 3, β =
-    /// 0.5, `sure_nonplanar_below` 0.5: planar / non-planar 95.2 / 54.1 → 95.4 / 56.2 %).
-    pub sweep_support_sigma_color: f32,
+    /// The plane sweep that gives the label its depth ([`crate::photo::multisweep`]): the
+    /// sweep baseline's scoring with 64 planes per family, a 1 px plane step, 4 neighbours
+    /// (the best 2 averaged), adaptive support weights σc 0.15 (they keep a statue's depth
+    /// halo off the facade behind it), and no semi-global aggregation (the label's
+    /// confidence gate and confirmation read the raw winner-takes-all costs).
+    pub sweep: MultiSweepConfig,
     /// The label is allowed only where the sweep is this confident (second-best minus best
     /// cost, [`crate::photo::SweepResult::confidence`]): where the best depth is ambiguous
     /// (plain paint, glass) the sweep's depth means nothing and the planes must decide.
@@ -134,10 +126,7 @@ impl Default for NonplanarConfig {
             model: None,
             beta: 0.5,
             epsilon: 0.01,
-            sweep_planes: 64,
-            sweep_axis_planes: 64,
-            sweep_neighbours: 4,
-            sweep_support_sigma_color: 0.15,
+            sweep: default_sweep(),
             min_confidence: 0.1,
             sure_nonplanar_below: 0.3,
             fit_gap_weight: 1.0,
@@ -149,6 +138,27 @@ impl Default for NonplanarConfig {
             gross_tolerance: 0.05,
             gross_edge_px: 5,
         }
+    }
+}
+
+/// The default sweep of the non-planar label: the baseline's scoring with 64 planes per
+/// family at a 1 px step, 4 neighbours (the best half averaged), σc 0.15, and
+/// winner-takes-all on the raw costs (no semi-global aggregation).
+fn default_sweep() -> MultiSweepConfig {
+    let base = MultiSweepConfig::default();
+    MultiSweepConfig {
+        planes: 64,
+        axis_planes: 64,
+        axis_families: true,
+        max_step_px: 1.0,
+        photo: crate::photo::PhotoConfig {
+            neighbours: 4,
+            best_k: 2,
+            support_sigma_color: 0.15,
+            ..base.photo
+        },
+        sgm: crate::photo::SgmConfig::default(),
+        ..base
     }
 }
 
@@ -169,11 +179,14 @@ impl NonplanarConfig {
                 format!("= {} must be in (0, 1]", self.epsilon),
             );
         }
-        if self.sweep_planes < 2 {
+        if self.sweep.planes < 2 {
             return bad(
-                "nonplanar.sweep_planes",
-                format!("= {} must be ≥ 2", self.sweep_planes),
+                "nonplanar.sweep.planes",
+                format!("= {} must be ≥ 2", self.sweep.planes),
             );
+        }
+        if let Err(e) = self.sweep.validate() {
+            return bad("nonplanar.sweep", e.to_string());
         }
         if !(self.min_confidence.is_finite() && (0.0..=1.0).contains(&self.min_confidence)) {
             return bad(
@@ -193,19 +206,11 @@ impl NonplanarConfig {
                 format!("= {} must be finite and ≥ 0", self.fit_gap_weight),
             );
         }
-        // The sweep's own check of its settings; the support weights' σc is the only one
-        // of them set here that `sweep_neighbours`' check below does not cover.
-        if let Err(e) = self.sweep_config().sweep.photo.validate() {
-            return bad("nonplanar.sweep_support_sigma_color", e.to_string());
-        }
         if !(self.fit_gap_scale.is_finite() && self.fit_gap_scale > 0.0) {
             return bad(
                 "nonplanar.fit_gap_scale",
                 format!("= {} must be finite and > 0", self.fit_gap_scale),
             );
-        }
-        if self.sweep_neighbours == 0 {
-            return bad("nonplanar.sweep_neighbours", "must be ≥ 1".into());
         }
         let tol = self.consistency_tolerance;
         if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
@@ -243,29 +248,6 @@ impl NonplanarConfig {
         } else {
             0.0
         }
-    }
-
-    /// The plane-sweep settings of the label's depth: the baseline's scoring, with these
-    /// plane and neighbour counts, and the best half of the neighbours averaged (as the
-    /// baseline's 4 of 8).
-    pub fn sweep_config(&self) -> MultiSweepConfig {
-        let mut cfg = MultiSweepConfig {
-            planes: self.sweep_planes,
-            axis_planes: self.sweep_axis_planes,
-            axis_families: self.sweep_axis_planes > 0,
-            neighbours: self.sweep_neighbours,
-            // The 1 px step the label was tuned with (the baseline's default is finer since
-            // 6 Dec, with its semi-global paths, which the label does not use).
-            max_step_px: 1.0,
-            ..MultiSweepConfig::default()
-        };
-        cfg.sweep.photo.best_k = (self.sweep_neighbours / 2).max(1);
-        cfg.sweep.photo.support_sigma_color = self.sweep_support_sigma_color;
-        // Winner-takes-all on the raw costs: the label's data cost, its confidence gate
-        // (`min_confidence`) and the confirmation were tuned on them, and the semi-global
-        // aggregation rescales both.
-        cfg.sweep.sgm = crate::photo::SgmConfig::default();
-        cfg
     }
 }
 
@@ -331,9 +313,9 @@ impl NonplanarView {
             .planarity_map(image, Some(&points))
             .map_err(|e| PlanemapError::Input(format!("planarity classifier: {e}")))?;
         let n = image.width as usize * image.height as usize;
-        let sweep_cfg = cfg.sweep_config();
+        let sweep_cfg = &cfg.sweep;
         // No neighbour or no points: the label has no depth anywhere (infeasible).
-        let Ok(setup) = sweep_setup(scene, view_index, axes, &sweep_cfg) else {
+        let Ok(setup) = sweep_setup(scene, view_index, axes, sweep_cfg) else {
             return Ok(NonplanarView {
                 planarity,
                 depth: vec![0.0; n],
@@ -343,7 +325,7 @@ impl NonplanarView {
             });
         };
         let sweep = setup
-            .sweep(scene, images, view_index, &sweep_cfg)
+            .sweep(scene, images, view_index, sweep_cfg)
             .map_err(photo_err)?;
         let depth = sweep
             .depth
@@ -389,16 +371,16 @@ impl NonplanarView {
         if cfg.fit_gap_weight.is_nan() || cfg.fit_gap_weight <= 0.0 || planes.is_empty() {
             return Ok(self);
         }
-        let sweep_cfg = cfg.sweep_config();
-        let Ok(setup) = sweep_setup(scene, view_index, axes, &sweep_cfg) else {
+        let sweep_cfg = &cfg.sweep;
+        let Ok(setup) = sweep_setup(scene, view_index, axes, sweep_cfg) else {
             return Ok(self);
         };
         let image = &images[view_index];
         let n = image.width as usize * image.height as usize;
         let pairs = setup.pairs(scene, images);
         let view = &scene.views[view_index];
-        let volume = plane_cost_volume(view, image, &pairs, planes, &sweep_cfg.sweep.photo)
-            .map_err(photo_err)?;
+        let volume =
+            plane_cost_volume(view, image, &pairs, planes, &sweep_cfg.photo).map_err(photo_err)?;
         self.best_plane_cost = (0..n)
             .map(|p| volume.pixel_costs(p).iter().copied().fold(1.0f32, f32::min))
             .collect();

@@ -424,21 +424,17 @@ fn config_validation_names_the_field() {
         ..Default::default()
     };
     assert!(c.validate().unwrap_err().to_string().contains("epsilon"));
-    let c = NonplanarConfig {
-        sweep_support_sigma_color: f32::NAN,
-        ..Default::default()
-    };
-    assert!(c
-        .validate()
-        .unwrap_err()
-        .to_string()
-        .contains("nonplanar.sweep_support_sigma_color"));
-    let c = NonplanarConfig {
-        sweep_support_sigma_color: 0.15,
-        ..Default::default()
-    };
+    let mut c = NonplanarConfig::default();
+    c.sweep.photo.support_sigma_color = f64::NAN;
+    let err = c.validate().unwrap_err().to_string();
+    assert!(
+        err.contains("nonplanar.sweep") && err.contains("support_sigma_color"),
+        "{err}"
+    );
+    let c = NonplanarConfig::default();
     assert!(c.validate().is_ok());
-    assert_eq!(c.sweep_config().sweep.photo.support_sigma_color, 0.15);
+    assert_eq!(c.sweep.photo.support_sigma_color, 0.15);
+    assert_eq!((c.sweep.photo.neighbours, c.sweep.photo.best_k), (4, 2));
     for tol in [0.0, 1.0, f64::NAN] {
         let c = NonplanarConfig {
             consistency_tolerance: tol,

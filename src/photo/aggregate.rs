@@ -307,9 +307,9 @@ pub enum Aggregation {
         /// Window radius in pixels.
         radius: u32,
         /// Spatial standard deviation in pixels.
-        sigma_space: f32,
+        sigma_space: f64,
         /// Colour standard deviation in intensity units (`[0, 1]` scale).
-        sigma_color: f32,
+        sigma_color: f64,
     },
     /// Guided filter with the grey reference image as guide.
     Guided {
@@ -317,23 +317,23 @@ pub enum Aggregation {
         radius: u32,
         /// Ridge regulariser on the local slope, in squared intensity units (He et al. use
         /// `0.01²`–`0.1²`: larger smooths more across weak edges).
-        eps: f32,
+        eps: f64,
     },
     /// Weighted median with bilateral weights.
     WeightedMedian {
         /// Window radius in pixels.
         radius: u32,
         /// Spatial standard deviation in pixels.
-        sigma_space: f32,
+        sigma_space: f64,
         /// Colour standard deviation in intensity units.
-        sigma_color: f32,
+        sigma_color: f64,
     },
 }
 
 impl Aggregation {
     /// Checks the parameters (positive, finite).
     pub fn validate(&self) -> Result<(), PhotoError> {
-        let positive = |v: f32, what: &str| {
+        let positive = |v: f64, what: &str| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
@@ -374,15 +374,27 @@ impl Aggregation {
                 radius,
                 sigma_space,
                 sigma_color,
-            } => bilateral_filter(costs, guide, radius as usize, sigma_space, sigma_color),
+            } => bilateral_filter(
+                costs,
+                guide,
+                radius as usize,
+                sigma_space as f32,
+                sigma_color as f32,
+            ),
             Aggregation::Guided { radius, eps } => {
-                guided_filter(costs, guide, radius as usize, eps)
+                guided_filter(costs, guide, radius as usize, eps as f32)
             }
             Aggregation::WeightedMedian {
                 radius,
                 sigma_space,
                 sigma_color,
-            } => weighted_median_filter(costs, guide, radius as usize, sigma_space, sigma_color),
+            } => weighted_median_filter(
+                costs,
+                guide,
+                radius as usize,
+                sigma_space as f32,
+                sigma_color as f32,
+            ),
         }
     }
 }

@@ -336,8 +336,8 @@ impl<'a> Context<'a> {
             Support::new(
                 guide,
                 cfg.window_radius as usize,
-                cfg.support_sigma_color,
-                cfg.support_sigma_space,
+                cfg.support_sigma_color as f32,
+                cfg.support_sigma_space as f32,
             )
         });
         Context {
@@ -498,7 +498,7 @@ impl<'a> Context<'a> {
         let (w, h, ch) = (prep.width, prep.height, prep.channels);
         let n = w * h;
         let norm = self.cfg.effective_normalization();
-        let min_frac = self.cfg.min_valid_fraction;
+        let min_frac = self.cfg.min_valid_fraction as f32;
         // terms: the mask, then per channel the reference and the warped neighbour, both 0
         // where the neighbour did not warp inside (such pixels count for neither mean).
         let nt = 1 + 2 * ch;
@@ -605,7 +605,7 @@ impl<'a> Context<'a> {
         let n = w * h;
         let r = self.cfg.window_radius as isize;
         let norm = self.cfg.effective_normalization();
-        let min_frac = self.cfg.min_valid_fraction;
+        let min_frac = self.cfg.min_valid_fraction as f32;
         let bins = self.cfg.mi_bins as usize;
         for y in 0..h {
             for x in 0..w {

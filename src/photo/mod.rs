@@ -92,10 +92,16 @@ pub enum ColorMode {
     Color,
 }
 
-/// Photo-consistency settings shared by the cost volume and the sweep.
+/// Photo-consistency settings: how a pixel is scored on a plane against its neighbour views.
+/// Every stage that matches photographs nests one as its `photo` section
+/// (`planemap.photo`, `hypotheses.sweep.photo`, `nonplanar.sweep.photo`, the sweep
+/// baseline's `photo`), each with defaults of its own.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct PhotoConfig {
+    /// Neighbour views matched against each view ([`select_neighbours`]: views sharing
+    /// sparse points, at a useful baseline angle), at least 1.
+    pub neighbours: usize,
     /// The measure (tutorial §2.1 table).
     pub measure: Measure,
     /// Support-window radius in pixels: the window is `(2r+1)²` (3 → 7×7). The tutorial: the
@@ -122,7 +128,7 @@ pub struct PhotoConfig {
     /// A neighbour scores a window only if at least this fraction of the window's in-image
     /// reference pixels warp inside the neighbour image (in `(0, 1]`); otherwise it gives no
     /// evidence (cost 1 before the best-k choice).
-    pub min_valid_fraction: f32,
+    pub min_valid_fraction: f64,
     /// Grey-level bins for mutual information (`2..=32`); windows are small, so few bins.
     pub mi_bins: u32,
     /// Adaptive support weights for NCC (Yoon and Kweon 2006; the bilaterally weighted NCC
@@ -137,14 +143,15 @@ pub struct PhotoConfig {
     /// two on plain ones (papers.md, adaptive support weights). The sweep baseline sets 0.1
     /// since it aggregates semi-globally, which keeps plain surfaces
     /// (`--set sweep.photo.support_sigma_color=0` turns it off there).
-    pub support_sigma_color: f32,
+    pub support_sigma_color: f64,
     /// σs of the support weights in pixels (used when `support_sigma_color` > 0).
-    pub support_sigma_space: f32,
+    pub support_sigma_space: f64,
 }
 
 impl Default for PhotoConfig {
     fn default() -> Self {
         PhotoConfig {
+            neighbours: 4,
             measure: Measure::Ncc,
             window_radius: 3,
             color: ColorMode::Gray,
@@ -174,6 +181,11 @@ impl PhotoConfig {
 
     /// Checks every field; the error names the field and its value.
     pub fn validate(&self) -> Result<(), PhotoError> {
+        if self.neighbours == 0 {
+            return Err(PhotoError::InvalidConfig(
+                "neighbours must be at least 1".into(),
+            ));
+        }
         if self.window_radius > 64 {
             return Err(PhotoError::InvalidConfig(format!(
                 "window_radius must be at most 64 pixels, got {}",
@@ -223,9 +235,9 @@ impl PhotoConfig {
     }
 }
 
-/// Plane-sweep settings.
+/// Plane-sweep settings of one sweep call ([`plane_sweep`], [`multi_family_sweep`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SweepConfig {
     /// How each (pixel, plane) is scored.
     pub photo: PhotoConfig,

@@ -43,10 +43,6 @@ pub struct MultiSweepConfig {
     /// left such surfaces unswept (tiny: 61.5 % of textured surfaces within 1 %, 95.3 %
     /// without the cut).
     pub range_trim_points: usize,
-    /// Neighbour views per reference view ([`select_neighbours`]); the cost combines the
-    /// best `sweep.photo.best_k` of those that see the window. 8 rather than 4: on walks
-    /// (forward motion) and orbits many pixels are seen by only a few of them.
-    pub neighbours: usize,
     /// The depth range is [near · z_lo, far · z_hi]: z_lo is the smaller of the 2nd
     /// percentile of the depths of the view's own sparse points and the depth of the
     /// (`range_trim_points` + 1)-th nearest sparse point in its image, whichever views
@@ -79,8 +75,16 @@ pub struct MultiSweepConfig {
     /// had only the fronto-parallel family); of the other scenes only the stairs gain one (the
     /// flight's 32° slope, mixed from tread and riser normals), and lose 74.7 → 70.2 %.
     pub extra_directions: usize,
-    /// Scoring (measure, window, normalisation, aggregation).
-    pub sweep: SweepConfig,
+    /// Scoring: neighbour views (the cost combines the best `photo.best_k` of those that
+    /// see the window; 8 neighbours rather than 4: on walks and orbits many pixels are seen
+    /// by only a few of them), measure, window, normalisation, aggregation.
+    pub photo: PhotoConfig,
+    /// Confidence is `second-best − best` cost, the second best taken over planes whose
+    /// index differs from the winner's by more than this ([`SweepConfig`]).
+    pub confidence_exclusion: usize,
+    /// Semi-global aggregation of each family's cost volume before the winner-takes-all
+    /// (Hirschmüller 2008); `sgm.paths` = 0 turns it off.
+    pub sgm: SgmConfig,
 }
 
 impl Default for MultiSweepConfig {
@@ -91,7 +95,6 @@ impl Default for MultiSweepConfig {
             axis_planes: 128,
             axis_margin: 0.1,
             range_trim_points: 2,
-            neighbours: 8,
             near_factor: 0.8,
             far_factor: 1.25,
             subplane: true,
@@ -99,39 +102,30 @@ impl Default for MultiSweepConfig {
             max_family_planes: 512,
             extra_directions: 2,
             // 5×5 NCC whose cost slices are guided-filtered over 15×15 (cost-volume
-            // filtering, Hosni et al. 2013): the weak textures (paving, floor boards, brick)
-            // need 15×15 of support under 1% image noise, and the guided filter gives it
-            // without fattening depth edges the way a 15×15 NCC window does. The best 4 of
-            // the 8 neighbours, not 2: on the stairs' repeated treads and nosings two
-            // neighbours often agree on a shifted copy, four rarely do. papers.md has the
-            // per-scene figures; corridor's 8 views took 54 s before both changes, 64 s after.
-            sweep: SweepConfig {
-                photo: PhotoConfig {
-                    window_radius: 2,
-                    best_k: 4,
-                    aggregation: Aggregation::Guided {
-                        radius: 7,
-                        eps: 1e-3,
-                    },
-                    // Adaptive support weights (σc 0.1, σs 3): with the semi-global paths
-                    // below settling plain paint, the weights' loss there is small and their
-                    // gain beside depth edges stays (papers.md, *Semi-global aggregation*;
-                    // 0.15 until 6 Dec, 0.1 since: *Narrower support weights, stiffer paths*).
-                    support_sigma_color: 0.1,
-                    ..Default::default()
+            // filtering, Hosni et al. 2013): weak textures (paving, floor boards, brick)
+            // need 15×15 of support under 1 % image noise, which the guided filter gives
+            // without fattening depth edges as a 15×15 window would. The best 4 of 8
+            // neighbours: on repeated texture (stair treads) two neighbours often agree on a
+            // shifted copy, four rarely do. Adaptive support weights (σc 0.1, σs 3) keep a
+            // foreground's texture out of the background's windows.
+            photo: PhotoConfig {
+                neighbours: 8,
+                window_radius: 2,
+                best_k: 4,
+                aggregation: Aggregation::Guided {
+                    radius: 7,
+                    eps: 1e-3,
                 },
-                // Semi-global aggregation (Hirschmüller 2008) over 8 paths before the
-                // winner-takes-all: every view of the 13 scenes, textured surfaces within 1 %
-                // 88.16 → 88.87 %, plain surfaces 42.91 → 68.24 % (papers.md, *Semi-global
-                // aggregation*), 10–15 % more time. P1 0.1 / P2 1.0 rather than the module's
-                // 0.06 / 0.6, chosen with σc 0.1 above (view 2 of every scene: the same
-                // textured surfaces, plain ones +1.3 points).
-                sgm: SgmConfig {
-                    paths: 8,
-                    p1: 0.1,
-                    p2: 1.0,
-                    ..Default::default()
-                },
+                support_sigma_color: 0.1,
+                ..Default::default()
+            },
+            confidence_exclusion: SweepConfig::default().confidence_exclusion,
+            // Semi-global aggregation over 8 paths settles plain surfaces between textured
+            // edges; P1 0.1 / P2 1.0, chosen together with σc 0.1 (docs/notes).
+            sgm: SgmConfig {
+                paths: 8,
+                p1: 0.1,
+                p2: 1.0,
                 ..Default::default()
             },
         }
@@ -139,6 +133,15 @@ impl Default for MultiSweepConfig {
 }
 
 impl MultiSweepConfig {
+    /// The settings of one sweep call ([`multi_family_sweep`]).
+    pub fn sweep_config(&self) -> SweepConfig {
+        SweepConfig {
+            photo: self.photo,
+            confidence_exclusion: self.confidence_exclusion,
+            sgm: self.sgm,
+        }
+    }
+
     /// Checks the values; the error names the field.
     pub fn validate(&self) -> Result<(), PhotoError> {
         let bad = |m: String| Err(PhotoError::InvalidConfig(m));
@@ -160,7 +163,7 @@ impl MultiSweepConfig {
                 self.max_family_planes
             ));
         }
-        self.sweep.validate()
+        self.sweep_config().validate()
     }
 }
 
@@ -200,7 +203,7 @@ impl SweepSetup {
             &images[index],
             &self.pairs(scene, images),
             &self.families,
-            &cfg.sweep,
+            &cfg.sweep_config(),
             cfg.subplane,
         )
         .map(|r| r.sweep)
@@ -269,7 +272,7 @@ pub fn sweep_setup(
     // from (below).
     let own_near = own_lo * cfg.near_factor;
     let own_far = (own_hi * cfg.far_factor).max(own_near * 1.01);
-    let neighbours = select_neighbours(scene, index, cfg.neighbours)?;
+    let neighbours = select_neighbours(scene, index, cfg.photo.neighbours)?;
     if neighbours.is_empty() {
         return Err(PhotoError::InvalidInput(
             "no neighbour view shares points with this view".into(),

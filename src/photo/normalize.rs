@@ -25,21 +25,21 @@ pub enum Normalization {
     /// `1 − 1/e ≈ 0.63`.
     Exponential {
         /// Raw score (measure units) at which the cost is `1 − 1/e`; `> 0`.
-        scale: f32,
+        scale: f64,
     },
     /// `min(raw / threshold, 1)`: linear up to the outlier bound, then flat.
     TruncatedLinear {
         /// Raw score (measure units) from which a match counts as an outlier (cost 1); `> 0`.
-        threshold: f32,
+        threshold: f64,
     },
     /// Cost 0 up to `inlier`, 1 from `outlier`, the smooth step `3t² − 2t³` between: the
     /// tutorial's two plateaus and steep ramp.
     SmoothStep {
         /// Raw score (measure units) below which a match is a certain inlier (cost 0); `≥ 0`.
-        inlier: f32,
+        inlier: f64,
         /// Raw score (measure units) above which a match is a certain outlier (cost 1);
         /// `> inlier`.
-        outlier: f32,
+        outlier: f64,
     },
 }
 
@@ -53,19 +53,19 @@ impl Normalization {
     pub fn default_for(measure: Measure) -> Self {
         match measure {
             Measure::Sad => Normalization::SmoothStep {
-                inlier: SAD_INLIER,
-                outlier: SAD_OUTLIER,
+                inlier: SAD_INLIER as f64,
+                outlier: SAD_OUTLIER as f64,
             },
             Measure::Ssd => Normalization::SmoothStep {
-                inlier: SAD_INLIER * SAD_INLIER,
-                outlier: SAD_OUTLIER * SAD_OUTLIER,
+                inlier: (SAD_INLIER * SAD_INLIER) as f64,
+                outlier: (SAD_OUTLIER * SAD_OUTLIER) as f64,
             },
             Measure::Ncc => Normalization::TruncatedLinear {
-                threshold: NCC_OUTLIER,
+                threshold: NCC_OUTLIER as f64,
             },
             Measure::Census => Normalization::TruncatedLinear { threshold: 0.5 },
             Measure::Rank => Normalization::TruncatedLinear {
-                threshold: 1.0 / 3.0,
+                threshold: (1.0f32 / 3.0) as f64,
             },
             Measure::MutualInformation => Normalization::TruncatedLinear { threshold: 1.0 },
         }
@@ -111,11 +111,13 @@ impl Normalization {
     /// The cost in `[0, 1]` of a raw dissimilarity `raw` (negative values count as 0).
     #[inline]
     pub fn apply(&self, raw: f32) -> f32 {
+        // The settings are f64 like every setting; the costs are f32.
         let r = raw.max(0.0);
         match *self {
-            Normalization::Exponential { scale } => 1.0 - (-r / scale).exp(),
-            Normalization::TruncatedLinear { threshold } => (r / threshold).min(1.0),
+            Normalization::Exponential { scale } => 1.0 - (-r / scale as f32).exp(),
+            Normalization::TruncatedLinear { threshold } => (r / threshold as f32).min(1.0),
             Normalization::SmoothStep { inlier, outlier } => {
+                let (inlier, outlier) = (inlier as f32, outlier as f32);
                 let t = ((r - inlier) / (outlier - inlier)).clamp(0.0, 1.0);
                 t * t * (3.0 - 2.0 * t)
             }
@@ -171,7 +173,7 @@ mod tests {
             .validate()
             .is_err());
         assert!(Normalization::TruncatedLinear {
-            threshold: f32::NAN
+            threshold: f64::NAN
         }
         .validate()
         .is_err());

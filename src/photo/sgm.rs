@@ -32,12 +32,12 @@ pub struct SgmConfig {
     pub paths: usize,
     /// Penalty for a change of one plane between consecutive pixels of a path (costs are in
     /// `[0, 1]`).
-    pub p1: f32,
+    pub p1: f64,
     /// Penalty for a change of more than one plane (a depth jump); ≥ `p1`.
-    pub p2: f32,
+    pub p2: f64,
     /// Edge-aware `P2`: divided by `1 + |ΔI| / p2_edge` between consecutive pixels whose
     /// grey levels (in `[0, 1]`) differ by `ΔI`, never below `p1`. 0 = a constant `P2`.
-    pub p2_edge: f32,
+    pub p2_edge: f64,
     /// Where the sub-plane refinement ([`super::refine_subplane`]) fits its parabola after
     /// the paths picked the winner: `true` — to the local (pre-path) costs where they have
     /// evidence and a convex minimum around the winning plane, to the aggregated ones
@@ -90,11 +90,13 @@ impl SgmConfig {
         Ok(())
     }
 
+    /// P2 between two pixels of grey levels `a` and `b` (computed in f32, as the costs).
     fn p2_between(&self, a: f32, b: f32) -> f32 {
-        if self.p2_edge > 0.0 {
-            (self.p2 / (1.0 + (a - b).abs() / self.p2_edge)).max(self.p1)
+        let (p1, p2, p2_edge) = (self.p1 as f32, self.p2 as f32, self.p2_edge as f32);
+        if p2_edge > 0.0 {
+            (p2 / (1.0 + (a - b).abs() / p2_edge)).max(p1)
         } else {
-            self.p2
+            p2
         }
     }
 }
@@ -187,7 +189,7 @@ pub fn semi_global(
                         } else {
                             let q = (p as isize - dx) as usize;
                             let p2 = cfg.p2_between(grey[p], grey[q]);
-                            prev_min = step(cost, &prev, prev_min, cfg.p1, p2, &mut cur);
+                            prev_min = step(cost, &prev, prev_min, cfg.p1 as f32, p2, &mut cur);
                         }
                         for (s, &v) in s_row[x * np..(x + 1) * np].iter_mut().zip(&cur) {
                             *s += v;
@@ -221,7 +223,7 @@ pub fn semi_global(
                                 cost,
                                 &prev[qx * np..(qx + 1) * np],
                                 prev_min[qx],
-                                cfg.p1,
+                                cfg.p1 as f32,
                                 p2,
                                 out,
                             );
@@ -240,7 +242,7 @@ pub fn semi_global(
             }
         }
     }
-    let scale = 1.0 / (dirs.len() as f32 * (1.0 + cfg.p2));
+    let scale = 1.0 / (dirs.len() as f32 * (1.0 + cfg.p2 as f32));
     sum.par_chunks_mut(np)
         .zip(c.par_chunks(np))
         .for_each(|(s, raw)| {
@@ -295,10 +297,10 @@ mod tests {
                             let p2 = cfg.p2_between(grey[p], grey[q]) as f64;
                             let mut m = prev[k].min(pm + p2);
                             if k > 0 {
-                                m = m.min(prev[k - 1] + cfg.p1 as f64);
+                                m = m.min(prev[k - 1] + cfg.p1 as f32 as f64);
                             }
                             if k + 1 < np {
-                                m = m.min(prev[k + 1] + cfg.p1 as f64);
+                                m = m.min(prev[k + 1] + cfg.p1 as f32 as f64);
                             }
                             cost + m - pm
                         } else {
@@ -311,7 +313,7 @@ mod tests {
                 *t += v;
             }
         }
-        let n = cfg.paths as f64 * (1.0 + cfg.p2 as f64);
+        let n = cfg.paths as f64 * (1.0 + cfg.p2 as f32 as f64);
         total
             .chunks(np)
             .zip(volume.costs.chunks(np))

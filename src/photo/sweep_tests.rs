@@ -1054,8 +1054,8 @@ fn support_weighted_ncc_matches_a_naive_weighted_ncc() {
     let cfg = PhotoConfig {
         best_k: 1,
         window_radius: 2,
-        support_sigma_color: sigmas.0,
-        support_sigma_space: sigmas.1,
+        support_sigma_color: sigmas.0 as f64,
+        support_sigma_space: sigmas.1 as f64,
         ..Default::default()
     };
     let volume = plane_cost_volume(&scene.views[0], &scene.images[0], &nbr, &planes, &cfg).unwrap();
@@ -1196,7 +1196,7 @@ fn support_weights_keep_a_picket_fence_depth_off_the_wall_behind() {
             truth[p] > 5.0 && (x - 4..=x + 4).any(|q| truth[y * w + q] < 5.0)
         })
         .collect();
-    let score = |sigma_color: f32| {
+    let score = |sigma_color: f64| {
         let sweep = SweepConfig {
             photo: PhotoConfig {
                 window_radius: 2,

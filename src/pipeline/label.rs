@@ -291,7 +291,7 @@ pub(super) fn add_photo_term(
     cfg: &PlanemapConfig,
 ) -> Result<(), PlanemapError> {
     let photo_err = |e: crate::photo::PhotoError| PlanemapError::Input(format!("photo term: {e}"));
-    let nb = crate::photo::select_neighbours(scene, view_index, cfg.photo_neighbours)
+    let nb = crate::photo::select_neighbours(scene, view_index, cfg.photo.neighbours)
         .map_err(photo_err)?;
     if nb.is_empty() {
         return Ok(());
@@ -302,7 +302,7 @@ pub(super) fn add_photo_term(
         image,
         &neighbours,
         &energy.planes,
-        &photo_term_config(cfg),
+        &cfg.photo,
     )
     .map_err(photo_err)?;
     let w = cfg.photo_weight as f32;
@@ -310,15 +310,6 @@ pub(super) fn add_photo_term(
         *u += w * c;
     }
     Ok(())
-}
-
-/// The cost volume settings of the photo-consistency data term: 7×7 NCC (the measure's
-/// defaults), with `cfg.photo_support_sigma_color`'s adaptive support weights.
-pub(super) fn photo_term_config(cfg: &PlanemapConfig) -> crate::photo::PhotoConfig {
-    crate::photo::PhotoConfig {
-        support_sigma_color: cfg.photo_support_sigma_color as f32,
-        ..Default::default()
-    }
 }
 
 /// Multi-view confirmation of the non-planar label ([`NonplanarConfig::consistent_views`]):

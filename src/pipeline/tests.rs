@@ -56,10 +56,8 @@ fn the_photo_term_is_the_cost_volume_with_the_configured_support_weights() {
         scale: corner.scale,
     };
     let photo_costs = |sigma: f64| {
-        let cfg = PlanemapConfig {
-            photo_support_sigma_color: sigma,
-            ..PlanemapConfig::default()
-        };
+        let mut cfg = PlanemapConfig::default();
+        cfg.photo.support_sigma_color = sigma;
         let mut energy = PlanemapEnergy::build(&inputs, &cfg).unwrap();
         let before = energy.unary.clone();
         add_photo_term(
@@ -72,7 +70,7 @@ fn the_photo_term_is_the_cost_volume_with_the_configured_support_weights() {
         )
         .unwrap();
         // Against the cost volume computed directly with σc = sigma.
-        let nb = crate::photo::select_neighbours(&scene, 0, cfg.photo_neighbours).unwrap();
+        let nb = crate::photo::select_neighbours(&scene, 0, cfg.photo.neighbours).unwrap();
         assert!(!nb.is_empty());
         let neighbours: Vec<_> = nb
             .iter()
@@ -84,7 +82,8 @@ fn the_photo_term_is_the_cost_volume_with_the_configured_support_weights() {
             &neighbours,
             &energy.planes,
             &crate::photo::PhotoConfig {
-                support_sigma_color: sigma as f32,
+                neighbours: 3,
+                support_sigma_color: sigma,
                 ..Default::default()
             },
         )
@@ -114,12 +113,11 @@ fn the_photo_term_is_the_cost_volume_with_the_configured_support_weights() {
         "only {changed} of {} costs changed",
         boxed.len()
     );
-    assert!(PlanemapConfig {
-        photo_support_sigma_color: -0.1,
-        ..PlanemapConfig::default()
-    }
-    .validate()
-    .is_err_and(|e| e.to_string().contains("photo_support_sigma_color")));
+    let mut bad = PlanemapConfig::default();
+    bad.photo.support_sigma_color = -0.1;
+    assert!(bad.validate().is_err_and(
+        |e| e.to_string().contains("photo") && e.to_string().contains("support_sigma_color")
+    ));
 }
 
 #[test]

@@ -39,6 +39,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::geometry::{Camera, Plane};
+use crate::photo::PhotoConfig;
 use crate::raster::ImageF32;
 use crate::scene::{SparseCloud, View};
 
@@ -119,17 +120,15 @@ pub struct PlanemapConfig {
     /// cap). Bounds the α-expansion cost, which is linear in the number of labels.
     pub max_labels: usize,
     /// Weight of the optional photo-consistency data term (Sinha et al. 2009 style):
-    /// `D_p(h) += photo_weight · c_p(h)`, c the NCC cost in [0, 1] of pixel p on plane h
-    /// against the best of `photo_neighbours` neighbour views ([`crate::photo`]). 0 = off.
+    /// `D_p(h) += photo_weight · c_p(h)`, c the cost in [0, 1] of pixel p on plane h
+    /// against the best of the `photo.neighbours` neighbour views ([`crate::photo`]), in
+    /// data-cost units, ≥ 0; 0 = off.
     pub photo_weight: f64,
-    /// Neighbour views matched by the photo-consistency term.
-    pub photo_neighbours: usize,
-    /// Colour σ (grey levels in [0, 1]) of the adaptive support weights in the photo term's
-    /// 7×7 NCC windows (Yoon and Kweon 2006; [`crate::photo::PhotoConfig::support_sigma_color`],
-    /// spatial σ 3 px): a window pixel counts by how alike its colour is to the centre's, so a
-    /// contrasted foreground (a column, a picket) does not win its background's windows.
-    /// 0 = box windows (every pixel counts alike). 0.15 from all 13 scenes (papers.md).
-    pub photo_support_sigma_color: f64,
+    /// How the photo term scores a pixel on a plane: 7×7 NCC against the best 2 of 3
+    /// neighbours, with adaptive support weights (Yoon and Kweon 2006; σc 0.15 grey
+    /// levels, σs 3 px) so that a contrasted foreground (a column, a picket) does not win
+    /// its background's windows. `photo.support_sigma_color = 0` gives box windows.
+    pub photo: PhotoConfig,
 }
 
 impl Default for PlanemapConfig {
@@ -150,8 +149,11 @@ impl Default for PlanemapConfig {
             min_support_in_frustum: 20,
             max_labels: 0,
             photo_weight: 0.3,
-            photo_neighbours: 3,
-            photo_support_sigma_color: 0.15,
+            photo: PhotoConfig {
+                neighbours: 3,
+                support_sigma_color: 0.15,
+                ..PhotoConfig::default()
+            },
         }
     }
 }
@@ -200,7 +202,10 @@ impl PlanemapConfig {
             });
         }
         non_negative("photo_weight", self.photo_weight)?;
-        non_negative("photo_support_sigma_color", self.photo_support_sigma_color)?;
+        self.photo.validate().map_err(|e| PlanemapError::Config {
+            field: "photo",
+            message: e.to_string(),
+        })?;
         if !(self.dominant_line_weight.is_finite()
             && self.dominant_line_weight >= 0.0
             && self.dominant_line_weight <= 1.0)
