@@ -61,58 +61,76 @@ pub enum MissingAxes {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct AxesConfig {
-    /// Approximate number of hemisphere bins (paper: ~1000).
+    /// Approximate number of equal-area bins of the normal histogram on the hemisphere
+    /// (`n` and `−n` folded), a count ≥ 10: the paper's ~1000.
     pub num_bins: usize,
-    /// Half-angle (degrees) of the cone used to score and refine a direction.
+    /// Half-angle, in degrees in (0, 45), of the cone in which normals score a candidate
+    /// direction (its axial support) and are re-averaged to refine it. Not tuned.
     pub refine_angle_deg: f64,
-    /// Refinement iterations (re-averaging normals within `refine_angle_deg`).
+    /// Re-averaging rounds refining each candidate direction (normals within
+    /// `refine_angle_deg`), a count; 0 = the bin's mean normal as it is. Not tuned.
     pub refine_iterations: usize,
-    /// Fullest bins proposed as candidate directions.
+    /// How many of the fullest histogram bins propose their mean normal as a candidate
+    /// direction, a count ≥ 1: a peak on the hemisphere's rim is split between two bins, so
+    /// more than the fullest bin must be looked at. Not tuned.
     pub max_candidates: usize,
-    /// Lower bound (degrees) of the angle between d2 and d1, and d3 and d1, d2 (paper: 80°).
+    /// Lower bound, in degrees in [0, 90], of the angle between d2 and d1, and between d3
+    /// and d1, d2: the paper's 80°.
     pub min_orthogonal_deg: f64,
-    /// Upper bound (degrees) of that angle (paper: 100°; as an axial angle ≤ 90° this means
-    /// "within `180 − max` of perpendicular").
+    /// Upper bound, in degrees in [90, 180], of that angle: the paper's 100° (as an axial
+    /// angle ≤ 90° this means "within `180 − max` of perpendicular").
     pub max_orthogonal_deg: f64,
-    /// Minimum axial support of d1–d3 as a fraction of the usable normals (guards against a
-    /// handful of stray normals making an axis).
+    /// Minimum axial support of d1–d3 as a fraction of the usable normals, in [0, 1]; the
+    /// larger of this and `min_support` applies. Guards against a handful of stray normals
+    /// making an axis.
     pub min_support_fraction: f64,
-    /// Minimum axial support of d1–d3 in points.
+    /// Minimum axial support of d1–d3 in normals (points), a count; also the support a
+    /// completed third axis needs (`complete_frame`). Guards against stray normals.
     pub min_support: usize,
-    /// Normals with confidence below this are ignored.
+    /// Normals whose confidence (in [0, 1]) is below this are ignored; in [0, 1]. Just
+    /// above 0, so that normals whose fit failed (confidence 0) do not vote.
     pub min_confidence: f64,
-    /// Replace d1..d3 by the nearest orthonormal frame (polar decomposition). Off in the paper.
+    /// Replace d1–d3 by an orthonormal frame (how: `snap_sharp_angle_deg`). Off, as in the
+    /// paper, which does not force the axes orthogonal; snapping also lost on room
+    /// (docs/notes/axes.md).
     pub snap_orthonormal: bool,
-    /// How to snap (when `snap_orthonormal`): 0 = nearest orthonormal frame (polar
-    /// decomposition, spreads every axis' error over all three). > 0 = of the six frames
-    /// that keep one axis exactly, make a second orthogonal to it and take the third as
-    /// their cross product, the one with most normals within this many degrees of an axis:
-    /// a direction smeared by small adjacent faces (stair treads and risers) is then fixed
-    /// by the two crisp ones instead of tilting them.
+    /// How to snap when `snap_orthonormal` is on, in degrees in [0, 45): 0 = the nearest
+    /// orthonormal frame (polar decomposition, which spreads every axis' error over all
+    /// three); > 0 = of the six frames that keep one axis exactly, make a second orthogonal
+    /// to it and take the third as their cross product, the one with most normals within
+    /// this many degrees of an axis, so that a direction smeared by small adjacent faces
+    /// (stair treads and risers) is fixed by the two crisp ones instead of tilting them.
+    /// Only matters when snapping.
     pub snap_sharp_angle_deg: f64,
-    /// Extra directions beyond the Manhattan three (roof slopes, oblique walls); 0 = paper.
-    /// 2 (3 Dec): gable 66.2 → 88.2 % within 1 % (its 45° roofs had no plane), no other
-    /// scene changes once the stairs' spurious slope hypotheses are filtered out
-    /// ([`crate::hypotheses::HypothesesConfig::max_shared_fraction`]).
+    /// Extra (non-Manhattan) directions looked for beyond the three axes (roof slopes,
+    /// oblique walls), a count; 0 = the paper's Manhattan three. Chosen on the 13 scenes:
+    /// pitched roofs and turned wings need their own planes, and no other scene changes
+    /// once [`crate::hypotheses::HypothesesConfig::max_shared_fraction`] drops a stair
+    /// flight's slope (docs/notes/axes.md).
     pub max_extra_directions: usize,
-    /// Minimum support of an extra direction as a fraction of the usable normals.
+    /// Minimum axial support of an extra direction, as a fraction of the usable normals,
+    /// in [0, 1]: an extra direction needs a real peak. Not tuned.
     pub extra_min_support_fraction: f64,
-    /// Minimum angle (degrees) between an extra direction and every direction already found.
+    /// Minimum angle, in degrees in (0, 90], between an extra direction and every direction
+    /// already found: it must be a peak of its own, away from the others. Not tuned.
     pub extra_min_separation_deg: f64,
-    /// With exactly two (near-orthogonal) Manhattan directions, take the third as their cross
-    /// product (refined by the normals near it) if at least `min_support` normals lie within
-    /// `refine_angle_deg` of it: its walls may be plain and have too few sparse points for the
-    /// fractional threshold (courtyard's east/west walls: 27 normals, 1.5 %), and the
-    /// photo-consistency sweep along it can then find their planes.
+    /// With exactly two (near-orthogonal) Manhattan directions, take the third as their
+    /// cross product (refined by the normals near it) if at least `min_support` normals lie
+    /// within `refine_angle_deg` of it; the fractional threshold is waived. On: plain walls
+    /// can have too few sparse points for an axis of their own (courtyard's east and west
+    /// walls), and the photo-consistency sweep along the completed axis then finds their
+    /// planes (docs/notes/axes.md).
     pub complete_frame: bool,
     /// With fewer than three Manhattan directions from the points, complete them with the
     /// cameras' vertical ([`camera_vertical_given`]: read off the image rows, or off the
     /// rows and a wall normal on a walk) and the horizontals across it
-    /// ([`DominantAxes::complete_with_vertical`], run by the pipeline): a lawn seen at
-    /// grazing angles has almost no sparse points, yet the photo-consistency sweep along
-    /// the vertical finds its plane. Nothing happens when the cameras were not held upright.
+    /// ([`DominantAxes::complete_with_vertical`], run by the pipeline); nothing happens when
+    /// the cameras were not held upright. On: a lawn or floor seen at grazing angles has
+    /// almost no sparse points, yet the sweep along the vertical finds its plane.
     pub camera_vertical: bool,
-    /// Behaviour when fewer than three Manhattan directions exist.
+    /// What to do when fewer than three Manhattan directions exist: `warn` (go on with the
+    /// directions found) or `error` (fail). Fewer than three is worth a warning, not a
+    /// failure.
     pub on_missing: MissingAxes,
     /// Refit of the axes from the points on their plane hypotheses (run by the pipeline
     /// after the first hypotheses, [`refine_axes_from_planes`]).
@@ -563,21 +581,26 @@ pub fn dominant_axes(
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct AxisRefineConfig {
-    /// Refit rounds (each: hypotheses → axes → hypotheses); 0 = off. Each round starts
-    /// from hypotheses found along the previous round's axes, so a tilt shrinks round by
-    /// round (stairs' vertical axis: 11° → 2.1° after 2 rounds, 0.3° after 4).
+    /// Refit rounds (each: hypotheses → axes → hypotheses), a count; 0 = off. Each round
+    /// starts from hypotheses found along the previous round's axes, so a tilt shrinks
+    /// round by round; four bring the stairs' vertical within a degree
+    /// (docs/notes/axes.md).
     pub iterations: usize,
-    /// A point is an inlier of a plane if within this many R of it...
+    /// A point is an inlier of its axis' nearest plane if within this many R of it (> 0),
+    /// as wide as the hypotheses' mean-shift bandwidth ...
     pub inlier_r: f64,
-    /// ... and its normal within this many degrees of the axis: tighter than the
-    /// hypotheses' tolerance, because points on an edge between two faces (a stair nosing)
-    /// have smeared normals and, on the wrong face, tilt the fit.
+    /// ... and its normal within this many degrees of the axis, in (0, 90): tighter than
+    /// the hypotheses' `normal_tolerance_deg`, because points on an edge between two faces
+    /// (a stair nosing) have smeared normals and, on the wrong face, tilt the fit.
     pub normal_tolerance_deg: f64,
-    /// A refit direction is accepted only if it moves by at most this many degrees.
+    /// A refit direction is accepted only if it moves by at most this many degrees, in
+    /// [0, 90]: a larger move is a wrong fit, not a correction.
     pub max_change_deg: f64,
     /// After the refit, make the axes orthogonal: the axis whose inliers fit their planes
     /// best (least RMS distance) is kept, the next best is made orthogonal to it, the third
-    /// is their cross product.
+    /// is their cross product. Off: it straightens the stairs' axes but costs scenes whose
+    /// facades are not exactly orthogonal to the fitted vertical (exterior;
+    /// docs/notes/axes.md).
     pub orthogonalize: bool,
 }
 

@@ -23,25 +23,30 @@ use crate::scene::Scene;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CreaseHypothesesConfig {
-    /// Look for crease hypotheses (needs the images and costs a second labelling of every
-    /// view when any is found).
+    /// Look for crease hypotheses (needs the images; costs a second labelling of every view
+    /// when any is found). On: plain ceilings and cabinet faces, which neither the points
+    /// nor the sweep can place, were the largest error left (docs/notes/hypotheses.md).
     pub enabled: bool,
     /// Votes an offset needs, as a multiple of the image width (a line's length grows with
-    /// the resolution). Offsets are binned at R; a peak pools its bin and the two beside it.
+    /// the resolution), > 0. Offsets are binned at R; a peak pools its bin and the two
+    /// beside it. Lower thresholds found more planes for little gain at 2–3× the time.
     pub min_votes_per_width: f64,
-    /// ... from at least this many views.
+    /// ... from at least this many views that see it (`min_view_votes_per_width`), a count
+    /// ≥ 1: a crease must be seen from more than one view.
     pub min_views: usize,
-    /// An axis votes only if |d_k · n| is at most this for the labelled plane's normal n
-    /// (0.7 ≈ 45°): a crease joins planes of different orientation.
+    /// An axis votes only if |d_k · n| is at most this for the labelled plane's normal n,
+    /// a cosine in [0, 1): a crease joins planes of different orientation, here ≈ 45° apart
+    /// or more.
     pub max_normal_cos: f64,
-    /// A candidate within this many R of an existing hypothesis of the same direction is
-    /// that hypothesis.
+    /// A candidate within this many R (≥ 0) of an existing hypothesis of the same direction
+    /// is that hypothesis.
     pub merge_r: f64,
     /// A view *sees* a crease hypothesis when it cast at least this many votes for it, as a
-    /// multiple of its image width; only those views count for `min_views`, and only they
-    /// are offered the hypothesis as a label (the rest keep their first labelling there).
-    /// Without it every view would carry every crease plane (room: 123 of them, 10× the
-    /// labels and the solve time of the first pass).
+    /// multiple of its image width, ≥ 0; only those views count for `min_views`, and only
+    /// they are offered the hypothesis as a label (the rest keep their first labelling
+    /// there). Offered everywhere, a textured room carried over a hundred crease planes per
+    /// view at 10× the solve time; the default is the largest value that keeps every
+    /// Manhattan scene's accuracy (docs/notes/hypotheses.md).
     pub min_view_votes_per_width: f64,
 }
 

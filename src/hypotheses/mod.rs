@@ -51,43 +51,51 @@ pub enum Kernel {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct HypothesesConfig {
-    /// A point votes for direction `d_k` if its normal is within this angle (degrees) of ±d_k.
+    /// A point votes for direction `d_k` if its normal is within this angle of ±`d_k`, in
+    /// degrees in (0, 90). A start value, not tuned (docs/notes/hypotheses.md).
     pub normal_tolerance_deg: f64,
-    /// Normal tolerance (degrees) for the third axis when it was completed as d1 × d2
-    /// ([`crate::axes::AxesConfig::complete_frame`]): no histogram peak supports that axis, so
-    /// points whose noisy normals happen to lie within `normal_tolerance_deg` of it are mostly
-    /// edge and corner points of the other planes, and their mean-shift modes are spurious
-    /// planes (corridor: five along the walls). 0 = no point-based hypotheses along it (the
-    /// photo-consistency sweep still proposes its planes).
+    /// The same tolerance for a third axis completed as d1 × d2
+    /// ([`crate::axes::AxesConfig::complete_frame`]), in degrees in [0, 90); 0 = no
+    /// point-based hypotheses along it (the photo-consistency sweep still proposes its
+    /// planes). 0: no histogram peak supports that axis, so the points whose noisy normals
+    /// lie near it are mostly edge and corner points of the other planes, and their
+    /// mean-shift modes are spurious planes (corridor; docs/notes/hypotheses.md).
     pub completed_axis_tolerance_deg: f64,
-    /// Mean-shift bandwidth in units of the sampling scale `R` (paper: R or 2R).
+    /// Mean-shift bandwidth in units of the sampling scale `R`, > 0: the paper's R or 2R.
     pub bandwidth_r: f64,
-    /// Mean-shift kernel.
+    /// Mean-shift kernel: `flat` (uniform weight within ± the bandwidth; a mode is the mean
+    /// of the offsets in the window) or `gaussian` (σ = the bandwidth, truncated at 3σ).
     pub kernel: Kernel,
-    /// Minimum number of points within the bandwidth of a peak (paper: 50).
+    /// Minimum number of points within the bandwidth of a mode for it to become a
+    /// hypothesis, a count ≥ 1: the paper's 50, relaxed for small clouds by
+    /// `min_support_fraction`.
     pub min_support: usize,
-    /// Relative minimum for small clouds: the effective minimum support is
-    /// `min(min_support, max(MIN_SUPPORT_FLOOR, ceil(min_support_fraction · N)))`, N = number of points.
+    /// Relative minimum support for small clouds, a fraction of the N points in [0, 1]: the
+    /// effective minimum is
+    /// `min(min_support, max(MIN_SUPPORT_FLOOR, ceil(min_support_fraction · N)))` with
+    /// [`MIN_SUPPORT_FLOOR`] = 6 points, since synthetic and small real clouds are smaller
+    /// than the paper's.
     pub min_support_fraction: f64,
-    /// Hypotheses with normals within this angle (degrees) and offsets closer than
-    /// `merge_offset_r · R` are duplicates; the better supported one is kept.
+    /// Hypotheses whose normals are within this angle (degrees, > 0) and whose offsets are
+    /// closer than `merge_offset_r · R` are duplicates; the better supported one is kept.
+    /// Not tuned.
     pub merge_angle_deg: f64,
-    /// Offset tolerance of duplicate merging, in units of `R`.
+    /// Offset tolerance of that duplicate test, in units of `R`, > 0. Not tuned.
     pub merge_offset_r: f64,
-    /// Points with confidence below this do not vote.
+    /// Points whose normal confidence (in [0, 1]) is below this do not vote; in [0, 1].
+    /// Just above 0, so that normals whose fit failed (confidence 0) are left out.
     pub min_confidence: f64,
-    /// Mean-shift iteration limit per seed.
+    /// Mean-shift iterations per seed at most, a count ≥ 1. A bound, not tuned.
     pub max_iterations: usize,
     /// A hypothesis along an extra (non-Manhattan) direction is dropped when more than this
-    /// fraction of its points also lie within the bandwidth of a Manhattan hypothesis. A
-    /// staircase's nosings lie on one slanted plane, and their normals, smeared between
-    /// tread and riser, make that slope a direction of its own; but each nosing point also
-    /// lies on a tread plane, while a roof's or a turned wall's points meet the Manhattan
-    /// planes along a few lines only. Measured: the stairs' slope 77–95 % (of 365 points),
-    /// gable's roof 1 % and its house front 53 % (that house's axes are extras there: the
-    /// turned wing's took the Manhattan slots). 1 = keep every such hypothesis.
+    /// fraction of its points also lie within the bandwidth of a Manhattan hypothesis; in
+    /// [0, 1], 1 = keep every such hypothesis. A staircase's nosings lie on one slanted
+    /// plane whose smeared normals make that slope a direction of its own, but each nosing
+    /// point also lies on a tread plane, while a roof's or a turned wall's points meet the
+    /// Manhattan planes along a few lines only; the default sits between the shares
+    /// measured in those two cases (docs/notes/hypotheses.md).
     pub max_shared_fraction: f64,
-    /// The photo-consistency sweep proposing planes the points are too few for.
+    /// The photo-consistency sweep proposing planes the sparse points are too few for.
     pub sweep: SweepHypothesesConfig,
     /// Planes through image creases lifted onto the first labelling's planes.
     pub creases: CreaseHypothesesConfig,

@@ -21,59 +21,70 @@ use crate::scene::{Scene, View};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct SweepHypothesesConfig {
-    /// Run the sweep (needs the images).
+    /// Run the sweep (needs the images). On: a plain wall with few sparse points gets no
+    /// point hypothesis and needs another source of planes (docs/notes/hypotheses.md).
     pub enabled: bool,
-    /// Offset step of the sweep in units of R (full-resolution R).
+    /// Width of the sweep's offset bins along each axis, in units of R (full-resolution R),
+    /// > 0: as wide as the point hypotheses' mean-shift bandwidth.
     pub step_r: f64,
-    /// At most this many offsets per axis and view; the step grows for larger ranges.
+    /// At most this many offset bins per axis, a count ≥ 2; the step grows beyond `step_r`
+    /// for larger ranges. Bounds the sweep's time.
     pub max_planes_per_axis: usize,
-    /// Sweep each offset bin at several evenly spaced sub-planes (scored by the cheapest)
-    /// until consecutive sub-planes move a pixel at most this far in the neighbours (pixels
-    /// of the reduced images; the `step_quantile` over a view's pixels and plane pairs,
-    /// median over the views; [`crate::photo::family_step_px`]). A plane seen at a
-    /// grazing angle (a lawn from eye height) moves pixels several pixels per step of 2 R,
-    /// further than the 5×5 NCC basin is wide, so none of the bin's offsets matched and
-    /// nothing voted for it. Bins, margins and peaks stay those of the `step_r` grid; a
-    /// hypothesis' offset is the mean of its voters' best sub-planes. 0 = one plane per bin.
+    /// Sweep each offset bin at several evenly spaced sub-planes (a bin scores its
+    /// cheapest) until consecutive sub-planes move a pixel at most this far in the
+    /// neighbours: pixels of the reduced images, the `step_quantile` over a view's pixels
+    /// and plane pairs, median over the views ([`crate::photo::family_step_px`]); ≥ 0,
+    /// 0 = one plane per bin. Bins, margins and peaks stay those of the `step_r` grid; a
+    /// hypothesis' offset is the mean of its voters' best sub-planes. Why: a plane seen at
+    /// a grazing angle (a lawn from eye height) moves pixels several pixels per bin,
+    /// further than the 5×5 NCC basin is wide, and then gets no votes; a finer bound
+    /// costs much more time for little gain (docs/notes/hypotheses.md).
     pub max_step_px: f64,
-    /// Quantile of the pixel steps over a view that `max_step_px` bounds (Gallup et al.
-    /// 2007 bound the largest; the 90th percentile ignores planes grazing the camera).
+    /// Quantile, in [0, 1], of the pixel steps over a view that `max_step_px` bounds.
+    /// Gallup et al. 2007 bound the largest; the 90th percentile ignores the planes grazing
+    /// the camera, which would ask for a step no sweep can pay.
     pub step_quantile: f64,
-    /// Sub-planes are never closer than this (units of R) ...
+    /// Sub-planes are never closer than this many R (> 0) ...
     pub min_step_r: f64,
-    /// ... and an axis never has more than this many (the sweep's time grows with them).
+    /// ... and an axis never has more than this many, a count ≥ 1: the sweep's time grows
+    /// with them.
     pub max_fine_planes: usize,
-    /// Sweep on images reduced by this integer factor (box filter); 1 = full resolution.
+    /// Sweep on images reduced by this integer factor (box filter), in 1..=8; 1 = full
+    /// resolution ...
     pub downsample: u32,
-    /// ... or by more, so that the reduced images are at most this wide (0 = no limit):
-    /// the sweep's cost grows with the pixel count, and 160 pixels across were enough on
-    /// every scene. At 640×480 this means 4×.
+    /// ... or by more, so that the reduced images are at most this many pixels wide; 0 = no
+    /// limit. The sweep's cost grows with the pixel count, and 160 pixels across were
+    /// enough on every scene (at 640×480 this means 4×).
     pub max_width: u32,
-    /// A pixel votes only if its best cost (NCC cost in [0, 1]) is at most this.
+    /// A pixel votes only if its best cost (the NCC cost) is at most this, in [0, 1] ...
     pub max_cost: f64,
     /// ... and the next best plane (another axis, or the same axis more than two steps
-    /// away) costs at least this much more.
+    /// away) costs at least this much more (cost units, in [0, 1]) ...
     pub min_margin: f64,
-    /// ... and its grey-level standard deviation over the matching window is at least this.
+    /// ... and its grey-level standard deviation over the matching window (grey levels in
+    /// [0, 1]) is at least this, in [0, 1]. With the two above: only good, unambiguous
+    /// matches on texture vote; not tuned.
     pub texture_threshold: f64,
     /// An offset becomes a hypothesis with at least this many votes in total, as a fraction
-    /// of one (downsampled) view's pixels.
+    /// of one (reduced) view's pixels, in (0, 1] ...
     pub min_vote_fraction: f64,
-    /// ... from at least this many views (each contributing at least a tenth of the votes
-    /// threshold).
+    /// ... from at least this many views, a count ≥ 1 (each contributing at least a tenth
+    /// of the votes threshold): a plane needs votes from more than one view. Not tuned.
     pub min_views: usize,
-    /// Photo-consistency scoring: 5×5 NCC against 3 neighbour views.
+    /// How the sweep scores a pixel on a plane: 5×5 NCC against 3 neighbour views, the best
+    /// 2 averaged; not tuned.
     pub photo: crate::photo::PhotoConfig,
-    /// Snap a sweep plane to a concentration of sparse points near it: the sweep's offsets
-    /// are only as fine as its step (≥ `step_r` R on reduced images), but a small plane
-    /// whose points got edge-like normals (a stair riser's nosing strip: its PCA
-    /// neighbourhoods reach into the tread) has its points at one offset. Within
-    /// ±1.5 steps of the sweep's offset, the densest window of width `snap_window_r` R is
+    /// Snap a sweep plane to a concentration of sparse points near it: within ±1.5
+    /// sub-plane steps of the sweep's offset, the densest window `snap_window_r` R wide is
     /// taken if it holds at least [`MIN_SUPPORT_FLOOR`] points and `snap_density` times the
     /// points a uniform spread over the range would put there; the plane moves to the
-    /// median offset of those points. Normals are not used. 0 = off.
+    /// median offset of those points (normals are not used). In R, ≥ 0; 0 = off. Why: the
+    /// sweep's offsets are only as fine as its step, while a small plane whose points got
+    /// edge-like normals (a stair riser's nosing strip, whose PCA neighbourhoods reach into
+    /// the tread) has its points at one offset (docs/notes/hypotheses.md).
     pub snap_window_r: f64,
-    /// Density ratio required by the snap (see `snap_window_r`).
+    /// Density ratio the snap requires (see `snap_window_r`), ≥ 1 (1 = any window at least
+    /// as dense as a uniform spread).
     pub snap_density: f64,
 }
 

@@ -47,75 +47,86 @@ pub const NONPLANAR: u32 = u32::MAX;
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
 pub struct NonplanarConfig {
-    /// Add the non-planar label (off by default: see papers.md for the benchmark that
-    /// decided it).
+    /// Add the non-planar label. Off: it gains only on scenes with trees and statues,
+    /// costs a Manhattan building up to a point of accuracy and takes about 3× the time
+    /// (docs/notes/nonplanar-classifier.md).
     pub enabled: bool,
     /// Classifier model file (`planemap classify train`); `None` = the built-in default model.
     pub model: Option<PathBuf>,
-    /// β: weight of the classifier's costs, in data-cost units (a plane label at a pixel the
-    /// classifier calls surely non-planar pays up to β·ln(1/ε) more). 0.5 since 5 Dec
-    /// (was 1), with the confirmation's K = 3 and σc = 0.15 below: papers.md has the scan.
+    /// β, the weight of the classifier's costs, in data-cost units, ≥ 0: a plane label at
+    /// a pixel the classifier calls surely non-planar pays up to β·ln(1/ε) more. Chosen
+    /// together with `consistent_views` and the label sweep's support weights on statues,
+    /// whose grey stone the classifier calls planar (docs/notes/nonplanar-classifier.md).
     pub beta: f64,
-    /// ε in the classifier's costs (bounds a confident mistake's cost).
+    /// ε in the classifier's costs `−ln(P + ε)`, in (0, 1]: bounds a confident mistake's
+    /// cost.
     pub epsilon: f64,
     /// The plane sweep that gives the label its depth ([`crate::photo::multisweep`]): the
-    /// sweep baseline's scoring with 64 planes per family, a 1 px plane step, 4 neighbours
-    /// (the best 2 averaged), adaptive support weights σc 0.15 (they keep a statue's depth
-    /// halo off the facade behind it), and no semi-global aggregation (the label's
-    /// confidence gate and confirmation read the raw winner-takes-all costs).
+    /// sweep baseline's guided-filtered 5×5 NCC, but 64 planes per family at a 1 px step,
+    /// 4 neighbours (the best 2 averaged), support weights σc 0.15 and no semi-global
+    /// aggregation. The plane counts and step are those the label was tuned with; the
+    /// support weights keep a statue's depth halo off the facade behind it; the label's
+    /// confidence gate and confirmation read the raw winner-takes-all costs, and
+    /// semi-global paths would pull trees and statues onto the wall behind them
+    /// (docs/notes/nonplanar-classifier.md).
     pub sweep: MultiSweepConfig,
-    /// The label is allowed only where the sweep is this confident (second-best minus best
-    /// cost, [`crate::photo::SweepResult::confidence`]): where the best depth is ambiguous
-    /// (plain paint, glass) the sweep's depth means nothing and the planes must decide.
+    /// The label is allowed only where the sweep is at least this confident (second-best
+    /// minus best cost, [`crate::photo::SweepResult::confidence`]), in cost units in
+    /// [0, 1]: where the best depth is ambiguous (plain paint, glass) the sweep's depth
+    /// means nothing and the planes must decide (without the gate it replaced glass's
+    /// facade).
     pub min_confidence: f64,
     /// Where the classifier's `P(planar)` is below this, the label is allowed wherever the
-    /// sweep has a depth, however unsure (`min_confidence` applies elsewhere): the sweep
-    /// baseline keeps its winner at every pixel, and where the classifier is sure a pixel
-    /// is not planar, a plane forced onto it is worse than an ambiguous sweep depth. 0 = off.
-    /// 0.3 (4 Dec): courtyard's non-planar pixels within 1 % 50.0 → 54.6 % (planar 89.9 →
-    /// 89.7), statues 49.9 → 50.7 (95.8 either way); 0.5 reaches a fifth of glass's planar
-    /// pixels (papers.md).
+    /// sweep has a depth, however unsure (`min_confidence` applies elsewhere); a
+    /// probability in [0, 1], 0 = off. Where the classifier is sure a pixel is not planar,
+    /// a plane forced onto it is worse than an ambiguous sweep depth; higher thresholds
+    /// reach glass's planar-looking reflections (docs/notes/nonplanar-classifier.md).
     pub sure_nonplanar_below: f64,
-    /// γ of the fit-gap cost (label-free geometric cue, data-cost units): every plane label
-    /// pays `γ·g`, `g = clamp((C_plane − C_sweep) / fit_gap_scale, 0, 1)`, where `C_sweep`
-    /// is the sweep's winning cost and `C_plane` the lowest cost of the view's plane labels
-    /// under the same measure and neighbours. Where every plane explains the pixel clearly
-    /// worse than the free-form sweep depth (statues, trees), the planes pay up to γ more;
-    /// where some plane does as well, nothing changes. 0 turns the cue off.
+    /// γ of the fit-gap cost (a label-free geometric cue), in data-cost units, ≥ 0,
+    /// 0 = off: every plane label pays `γ·g`,
+    /// `g = clamp((C_plane − C_sweep) / fit_gap_scale, 0, 1)`, where `C_sweep` is the
+    /// sweep's winning cost and `C_plane` the lowest cost of the view's plane labels under
+    /// the same measure and neighbours. Where every plane explains the pixel clearly worse
+    /// than the free-form sweep depth (statues, trees) the planes pay up to γ more; where
+    /// some plane does as well nothing changes. The largest γ that keeps statues' planar
+    /// pixels at 95 % (docs/notes/nonplanar-classifier.md).
     pub fit_gap_weight: f64,
-    /// The cost difference that counts as a full gap (`g = 1`).
+    /// The cost difference, in photo-consistency cost units (> 0), that counts as a full
+    /// gap (`g = 1`).
     pub fit_gap_scale: f64,
-    /// Multi-view confirmation, applied after every view is labelled: a pixel whose sweep
-    /// depth at least this many *other* views' sweep depths confirm (the point, projected
-    /// into them, lands on a pixel whose sweep depth agrees within
-    /// `consistency_tolerance`) becomes non-planar with that depth wherever its label's
-    /// depth differs by more than the tolerance — a surface several views agree on that no
-    /// plane explains. Only textured pixels where no plane label fits the images as well as
-    /// the sweep take part ([`NonplanarView::confirmable_depth`]). 0 turns it off. See
-    /// [`sweep_confirmations`]. 3 since 5 Dec (was 4): with the support weights above the
-    /// halos that made 3 cost planar pixels are narrower (papers.md).
+    /// Multi-view confirmation, after every view is labelled (MVS fusion's geometric
+    /// consistency, used as a label decision): a pixel whose sweep depth at least this many
+    /// *other* views' sweep depths confirm (the point, projected into them, lands on a
+    /// pixel whose sweep depth agrees within `consistency_tolerance`) becomes non-planar
+    /// with that depth wherever its label's depth differs by more than the tolerance. Only
+    /// textured pixels where no plane label fits the images as well as the sweep take part
+    /// ([`NonplanarView::confirmable_depth`]; [`sweep_confirmations`]). A count of views,
+    /// 0 = off. Fewer views also confirm the halo a statue's sweep depth leaves on the
+    /// facade behind it (docs/notes/nonplanar-classifier.md).
     pub consistent_views: usize,
-    /// Relative depth tolerance of that confirmation and of "differs".
+    /// Relative depth tolerance of that confirmation and of "differs", in (0, 1): the
+    /// benchmark's 1 % scoring tolerance.
     pub consistency_tolerance: f64,
-    /// Pixels within this many pixels (Chebyshev) of a jump in the sweep's depth map (more
-    /// than 5 % between 4-neighbours) are never confirmed: a window straddling a silhouette
-    /// lends the near depth to the far side (the "halo"), consistently in every view.
+    /// Pixels within this many pixels (Chebyshev) of a jump of more than 5 % in the sweep's
+    /// depth map (between 4-neighbours) are never confirmed, a count: a window straddling a
+    /// silhouette lends the near depth to the far side (the "halo"), consistently in every
+    /// view. Set on statues (docs/notes/nonplanar-classifier.md).
     pub consistency_edge_px: usize,
-    /// The confirmation's *gross tier*: a pixel whose labelled depth is more than this
-    /// (relative to the sweep's depth) away from its sweep depth also becomes non-planar
-    /// when `consistent_views` other views agree with that sweep depth only within
-    /// [`Self::gross_tolerance`] — on rough, curved stone the sweep's depth wanders by a few
-    /// per cent from view to view, so the 1 % agreement above never comes, while a plane
-    /// metres behind the statue is the label's worst case (statues: 14 065 non-planar
-    /// pixels on planes more than 20 % too far carried 84 % of all non-planar pixels'
-    /// absolute error). 0 turns the tier off. 0.2 since 5 Dec (papers.md, the gross tier).
+    /// The confirmation's *gross tier*: a pixel whose labelled depth is more than this far
+    /// from its sweep depth (relative to the sweep's depth; ≥ 0, 0 = off) also becomes
+    /// non-planar when `consistent_views` other views agree with that sweep depth within
+    /// [`Self::gross_tolerance`]. On rough, curved stone the views' sweep depths wander by
+    /// a few per cent, so the 1 % agreement never comes, while a plane metres behind a
+    /// statue is the label's worst case: such far-off pixels carried most of statues'
+    /// non-planar error (docs/notes/nonplanar-classifier.md).
     pub gross_gap: f64,
-    /// Relative agreement between views that the gross tier accepts.
+    /// Relative agreement between views that the gross tier accepts, in (0, 1): rough,
+    /// curved stone agrees within a few per cent.
     pub gross_tolerance: f64,
     /// Pixels within this many pixels (Chebyshev) of a jump in the sweep's depth map are
-    /// not confirmed by the gross tier: its looser agreement also accepts the halo a tree
-    /// lends the wall behind it, which reaches further from the silhouette than
-    /// [`Self::consistency_edge_px`].
+    /// not confirmed by the gross tier, a count: its looser agreement also accepts the halo
+    /// a tree lends the wall behind it, which reaches further from the silhouette than
+    /// [`Self::consistency_edge_px`]; the default keeps the canopies' halo out.
     pub gross_edge_px: usize,
 }
 

@@ -100,51 +100,57 @@ pub enum ColorMode {
 #[serde(default, deny_unknown_fields)]
 pub struct PhotoConfig {
     /// Neighbour views matched against each view ([`select_neighbours`]: views sharing
-    /// sparse points, at a useful baseline angle), at least 1.
+    /// sparse points, at a useful baseline angle), a count ≥ 1. Each section that matches
+    /// images sets its own (see the doc of its `photo` key).
     pub neighbours: usize,
-    /// The measure (tutorial §2.1 table).
+    /// The measure (tutorial §2.1 table): `ssd`, `sad`, `ncc`, `census`, `rank` or
+    /// `mutual_information`. NCC ignores gain and bias between views.
     pub measure: Measure,
-    /// Support-window radius in pixels: the window is `(2r+1)²` (3 → 7×7). The tutorial: the
-    /// domain should grow with resolution and viewpoint separation and shrink with distance;
-    /// larger is more robust, but smooths geometry. SSD/SAD/NCC cost O(1) per pixel for any
-    /// radius; Census/Rank/MI cost O(r²) (Rank O(r⁴)).
+    /// Support-window radius in pixels, at most 64: the window is `(2r+1)²` (3 → 7×7). The
+    /// tutorial: the domain should grow with resolution and viewpoint separation and shrink
+    /// with distance; larger is more robust, but smooths geometry. SSD/SAD/NCC cost O(1)
+    /// per pixel for any radius; Census/Rank/MI cost O(r²) (Rank O(r⁴)). The sweeps use
+    /// 5×5 where a guided filter or sub-planes supply the support.
     pub window_radius: u32,
-    /// Grey or colour matching.
+    /// Grey (`gray`, Rec. 601 luma) or colour (`color`) matching. Grey: 3× cheaper, and
+    /// colour NCC lost on the sweep (docs/notes/photo-and-sweep-baseline.md).
     pub color: ColorMode,
     /// Raw score → cost map; `None` = [`Normalization::default_for`] the measure.
     pub normalization: Option<Normalization>,
-    /// Aggregation of each plane's cost slice (after combining neighbours).
+    /// Aggregation of each plane's cost slice after combining neighbours: `kind` = `none`,
+    /// `box`, `bilateral`, `guided` or `weighted_median`, with that kind's parameters
+    /// beside it ([`Aggregation`]).
     pub aggregation: Aggregation,
     /// Occlusion handling: the cost of a pixel on a plane is the mean of the `best_k` lowest
-    /// neighbour costs (Kang, Szeliski, Chai 2001), so up to `n − best_k` neighbours may be
-    /// occluded or out of view. Clamped to the number of neighbours.
+    /// neighbour costs (Kang, Szeliski, Chai 2001), so up to `n − best_k` of the n
+    /// neighbours may be occluded or out of view. A count ≥ 1, clamped to the number of
+    /// neighbours.
     pub best_k: usize,
     /// Neighbours that must give evidence at a pixel (window warped into their image) for
-    /// it to get a cost below 1; the best-k mean then runs over those that do, so a pixel
-    /// seen by fewer than `best_k` neighbours (forward motion, views at the scene's edge)
-    /// is still scored. Clamped to `1..=best_k`. `best_k` reproduces a strict best-k (every
-    /// averaged cost from a neighbour that sees the window).
+    /// it to get a cost below 1; the best-k mean then runs over those that do. A count,
+    /// clamped to `1..=best_k`; `best_k` reproduces a strict best-k (every averaged cost
+    /// from a neighbour that sees the window). 1: under forward motion and at a scene's
+    /// edge most pixels are seen by fewer than `best_k` neighbours and must still be
+    /// scored.
     pub min_evidence: usize,
-    /// A neighbour scores a window only if at least this fraction of the window's in-image
-    /// reference pixels warp inside the neighbour image (in `(0, 1]`); otherwise it gives no
-    /// evidence (cost 1 before the best-k choice).
+    /// A neighbour scores a window only if at least this fraction of the window's
+    /// in-image reference pixels warp inside the neighbour image, in (0, 1]; otherwise it
+    /// gives no evidence (cost 1 before the best-k choice).
     pub min_valid_fraction: f64,
-    /// Grey-level bins for mutual information (`2..=32`); windows are small, so few bins.
+    /// Grey-level bins for mutual information, in 2..=32; windows are small, so few bins.
     pub mi_bins: u32,
-    /// Adaptive support weights for NCC (Yoon and Kweon 2006; the bilaterally weighted NCC
-    /// of COLMAP's PatchMatch, Schönberger et al. 2016): window pixel q of pixel p weighs
+    /// σc of adaptive support weights for NCC (Yoon and Kweon 2006; the bilaterally
+    /// weighted NCC of COLMAP's PatchMatch, Schönberger et al. 2016), in intensity units
+    /// (`[0, 1]` scale), ≥ 0; 0 = uniform weights (the O(1) box NCC); needs
+    /// `measure = "ncc"`. Window pixel q of pixel p weighs
     /// `exp(−Δc²/(2σc²) − Δs²/(2σs²))`, Δc the RMS difference of the reference image's
-    /// colours at p and q, Δs their distance in pixels. A window straddling a depth edge
-    /// then matches mostly the side of its centre pixel, so a thin foreground structure
-    /// (a fence picket, a pillar) does not lend its depth to the background around it.
-    /// σc in intensity units (`[0, 1]`); 0 = uniform weights (the O(1) box NCC). The
-    /// weighted path costs O(r²) per pixel (5×5: 1.23× the box NCC's time). Off by default
-    /// here: alone it gains half a point on textured surfaces (thin's fence 3.4) and loses
-    /// two on plain ones (papers.md, adaptive support weights). The sweep baseline sets 0.1
-    /// since it aggregates semi-globally, which keeps plain surfaces
-    /// (`--set sweep.photo.support_sigma_color=0` turns it off there).
+    /// colours at p and q, Δs their distance in pixels, so a window straddling a depth edge
+    /// matches mostly the side of its centre pixel and a thin foreground (a fence picket, a
+    /// pillar) does not lend its depth to the background around it. Costs O(r²) per pixel
+    /// (5×5: 1.23× the box NCC). Off unless a section turns it on: alone the weights lose
+    /// on plain surfaces (docs/notes/photo-and-sweep-baseline.md).
     pub support_sigma_color: f64,
-    /// σs of the support weights in pixels (used when `support_sigma_color` > 0).
+    /// σs of the support weights, in pixels, > 0 (checked when `support_sigma_color` > 0).
     pub support_sigma_space: f64,
 }
 
@@ -241,13 +247,13 @@ impl PhotoConfig {
 pub struct SweepConfig {
     /// How each (pixel, plane) is scored.
     pub photo: PhotoConfig,
-    /// Confidence is `second-best − best` cost, the second best taken over planes whose index
-    /// differs from the winner's by more than this (adjacent planes of a fine sweep score
-    /// almost alike at a correct match, which would make every match look ambiguous). 0 =
-    /// plain second-best.
+    /// Confidence is `second-best − best` cost, the second best taken over planes whose
+    /// index differs from the winner's by more than this, a count; 0 = plain second-best.
+    /// Adjacent planes of a fine sweep score almost alike at a correct match, which would
+    /// make every match look ambiguous.
     pub confidence_exclusion: usize,
     /// Semi-global aggregation of each family's cost volume before the winner-takes-all
-    /// (off by default: `sgm.paths` = 0).
+    /// (Hirschmüller 2008); off unless `sgm.paths` > 0.
     pub sgm: SgmConfig,
 }
 

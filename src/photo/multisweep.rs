@@ -22,68 +22,78 @@ use crate::scene::{Scene, View};
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
 pub struct MultiSweepConfig {
-    /// Fronto-parallel planes, evenly spaced in inverse depth.
+    /// Fronto-parallel planes, evenly spaced in inverse depth, a count: where the family
+    /// starts before `max_step_px` densifies it.
     pub planes: usize,
     /// Also sweep along each dominant axis of the scene (Gallup et al. 2007), the winner
-    /// taken over all families ([`multi_family_sweep`]): floors, walls and facades seen at
-    /// a slant are then matched with correctly slanted windows, which a fronto-parallel
+    /// taken over all families ([`multi_family_sweep`]). On: floors, walls and facades seen
+    /// at a slant are then matched with correctly slanted windows, which a fronto-parallel
     /// window cannot do.
     pub axis_families: bool,
-    /// Planes per axis family, evenly spaced in offset.
+    /// Planes per axis family, evenly spaced in offset, a count (0 = no axis families):
+    /// where each family starts before `max_step_px` densifies it.
     pub axis_planes: usize,
-    /// An axis family spans the range along the axis of the sparse points inside the view's
-    /// frustum between the near and far depths of its own points (all but the
-    /// `range_trim_points` most extreme at each end), widened by this fraction of that range
-    /// on each side, and clipped to the frustum between the near and far depths.
+    /// An axis family spans the range along the axis of the sparse points inside the
+    /// view's frustum between the near and far depths of its own points (all but the
+    /// `range_trim_points` most extreme at each end), widened by this fraction of that
+    /// range on each side (≥ 0) and clipped to the frustum between the near and far
+    /// depths. Not tuned.
     pub axis_margin: f64,
     /// Sparse points left out at each end of a range read from the points in the view's
-    /// image, whichever views tracked them (isolated SfM outliers): the depth range and each
-    /// axis family's range. A count, not a quantile: a floor or table top seen at a grazing
-    /// angle may hold under 2 % of a view's points, and a range cut at the 2nd percentile
-    /// left such surfaces unswept (tiny: 61.5 % of textured surfaces within 1 %, 95.3 %
-    /// without the cut).
+    /// image, whichever views tracked them (isolated SfM outliers): the depth range and
+    /// each axis family's range. A count, not a quantile: a floor or table top
+    /// seen at a grazing angle may hold under 2 % of a view's points, and a percentile cut
+    /// leaves it unswept (docs/notes/photo-and-sweep-baseline.md).
     pub range_trim_points: usize,
     /// The depth range is [near · z_lo, far · z_hi]: z_lo is the smaller of the 2nd
     /// percentile of the depths of the view's own sparse points and the depth of the
     /// (`range_trim_points` + 1)-th nearest sparse point in its image, whichever views
-    /// tracked it; z_hi likewise at the far end. The view's own points alone miss a pillar
-    /// next to the camera or a far gable that other views tracked. `near_factor` …
+    /// tracked it; z_hi likewise at the far end (the view's own points alone miss a pillar
+    /// next to the camera or a far gable that other views tracked). `near_factor`, a
+    /// factor (below 1 to reach nearer than the points) …
     pub near_factor: f64,
-    /// … and `far_factor`.
+    /// … and `far_factor` (above 1 to reach farther): a little room beyond the points; a
+    /// wider far end gave the winner-takes-all more wrong planes
+    /// (docs/notes/photo-and-sweep-baseline.md).
     pub far_factor: f64,
-    /// Sub-plane refinement ([`refine_subplane`]): fit a parabola to the cost at the
+    /// Sub-plane refinement ([`super::refine_subplane`]): fit a parabola to the cost at the
     /// winning plane and its two neighbours and move the depth to the parabola's minimum.
-    /// Without it the WTA depth is quantised to the plane spacing (a few % of depth for
-    /// 128 planes over the usual range), which alone defeats a 1% tolerance.
+    /// On: without it the winner-takes-all depth is quantised to the plane spacing (a few %
+    /// of depth), which alone defeats a 1 % tolerance.
     pub subplane: bool,
     /// Densify a family whose consecutive planes move a pixel by more than this many pixels
     /// in the neighbours (median over the view, [`family_step_px`]): its plane count is
     /// scaled up to bring the median step to this value, at most to `max_family_planes`.
-    /// Gallup et al. (2007) space their sweeps so that no plane step exceeds a pixel of
-    /// disparity; coarser, the NCC basin is narrower than the step and sub-plane
-    /// refinement has nothing to fit. 0 = the configured counts as they are. 0.7 by default
-    /// (1.0 until 6 Dec): with the semi-global paths a finer step is also a smaller P1 jump;
-    /// every view of the 13 scenes, textured surfaces within 1 % pooled 89.99 → 90.42 %
-    /// (exterior, occlusion, stairs +1–2 points, courtyard −0.6) for about 10 % more time
-    /// (papers.md, *Finer plane steps*).
+    /// In pixels, ≥ 0; 0 = the configured counts as they are. Gallup et al. (2007) space
+    /// their sweeps so that no plane step exceeds a pixel of disparity; coarser, the NCC
+    /// basin is narrower than the step and sub-plane refinement has nothing to fit. The
+    /// sweep baseline's sub-pixel step was the best tried with its semi-global paths, where
+    /// a finer step is also a smaller P1 jump; the non-planar label keeps the 1 px step it
+    /// was tuned with (docs/notes/photo-and-sweep-baseline.md).
     pub max_step_px: f64,
-    /// Cap on a densified family's plane count (time and memory grow linearly with it).
+    /// Cap on a densified family's plane count, ≥ 2: time and memory grow linearly with
+    /// it, and a higher cap changed nothing on the 13 scenes.
     pub max_family_planes: usize,
-    /// Non-Manhattan directions (roof slopes, turned wings) swept besides the three axes: the
-    /// pipeline's `axes.max_extra_directions` for [`scene_axes`]. 0 = the Manhattan axes only.
-    /// 2: gable's textured surfaces within 1 % went 69.2 → 83.2 % (its 45° roofs and 30° wing
-    /// had only the fronto-parallel family); of the other scenes only the stairs gain one (the
-    /// flight's 32° slope, mixed from tread and riser normals), and lose 74.7 → 70.2 %.
+    /// Non-Manhattan directions (roof slopes, turned wings) swept besides the three axes,
+    /// a count, 0 = the Manhattan axes only: the `axes.max_extra_directions` with which the
+    /// sweep baseline asks the points for its directions
+    /// ([`crate::baselines::scene_axes`]); the non-planar label sweeps the pipeline's own
+    /// axes and does not read it. Pitched roofs and turned wings otherwise have only the
+    /// fronto-parallel family (docs/notes/photo-and-sweep-baseline.md).
     pub extra_directions: usize,
     /// Scoring: neighbour views (the cost combines the best `photo.best_k` of those that
-    /// see the window; 8 neighbours rather than 4: on walks and orbits many pixels are seen
-    /// by only a few of them), measure, window, normalisation, aggregation.
+    /// see the window), measure, window, normalisation, aggregation, support weights. The
+    /// comments of `Default` explain the sweep baseline's choices; `nonplanar.sweep` the
+    /// non-planar label's.
     pub photo: PhotoConfig,
     /// Confidence is `second-best − best` cost, the second best taken over planes whose
-    /// index differs from the winner's by more than this ([`SweepConfig`]).
+    /// index differs from the winner's by more than this, a count
+    /// ([`SweepConfig::confidence_exclusion`]).
     pub confidence_exclusion: usize,
     /// Semi-global aggregation of each family's cost volume before the winner-takes-all
-    /// (Hirschmüller 2008); `sgm.paths` = 0 turns it off.
+    /// (Hirschmüller 2008); `sgm.paths` = 0 turns it off. The sweep baseline aggregates
+    /// over 8 paths, which settles plain surfaces between textured edges; the non-planar
+    /// label does not (see `nonplanar.sweep`).
     pub sgm: SgmConfig,
 }
 
@@ -121,7 +131,8 @@ impl Default for MultiSweepConfig {
             },
             confidence_exclusion: SweepConfig::default().confidence_exclusion,
             // Semi-global aggregation over 8 paths settles plain surfaces between textured
-            // edges; P1 0.1 / P2 1.0, chosen together with σc 0.1 (docs/notes).
+            // edges; P1 0.1 / P2 1.0, chosen together with σc 0.1
+            // (docs/notes/photo-and-sweep-baseline.md).
             sgm: SgmConfig {
                 paths: 8,
                 p1: 0.1,

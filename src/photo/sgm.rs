@@ -28,23 +28,29 @@ use crate::raster::ImageF32;
 #[serde(default)]
 pub struct SgmConfig {
     /// Scan directions: 0 (off: plain winner-takes-all), 4 (horizontal and vertical) or 8
-    /// (and the diagonals).
+    /// (and the diagonals). Off unless a sweep turns it on (the sweep baseline: 8): the
+    /// paths pull trees and statues onto the wall behind them, which the non-planar label
+    /// must not have.
     pub paths: usize,
-    /// Penalty for a change of one plane between consecutive pixels of a path (costs are in
-    /// `[0, 1]`).
+    /// Penalty for a change of one plane between consecutive pixels of a path, in cost
+    /// units (costs are in [0, 1]), ≥ 0: consecutive planes are about a pixel of disparity
+    /// apart, so this is a one-pixel step along a slanted surface. With `p2`, the best pair
+    /// of those tried on one view of every scene (docs/notes/photo-and-sweep-baseline.md).
     pub p1: f64,
-    /// Penalty for a change of more than one plane (a depth jump); ≥ `p1`.
+    /// Penalty for a change of more than one plane (a depth jump), in cost units, ≥ `p1`.
     pub p2: f64,
     /// Edge-aware `P2`: divided by `1 + |ΔI| / p2_edge` between consecutive pixels whose
-    /// grey levels (in `[0, 1]`) differ by `ΔI`, never below `p1`. 0 = a constant `P2`.
+    /// grey levels (in [0, 1]) differ by `ΔI`, never below `p1`; in grey levels, ≥ 0,
+    /// 0 = a constant `P2`. Depth jumps are likely across grey-level edges; a constant P2
+    /// lost on the `thin` scene (docs/notes/photo-and-sweep-baseline.md).
     pub p2_edge: f64,
     /// Where the sub-plane refinement ([`super::refine_subplane`]) fits its parabola after
     /// the paths picked the winner: `true` — to the local (pre-path) costs where they have
     /// evidence and a convex minimum around the winning plane, to the aggregated ones
     /// elsewhere; `false` — to the aggregated costs only. The paths' min-plus-penalty sums
-    /// flatten the cost curve about its minimum and bias the fit towards the plane itself.
-    /// Off by default: on every view of the 13 scenes it lost (papers.md, *Sub-plane fit on
-    /// the local costs: tried, not kept*).
+    /// flatten the cost curve about its minimum and bias the fit towards the plane itself,
+    /// yet the local fit lost over every view of the 13 scenes, so it is off
+    /// (docs/notes/photo-and-sweep-baseline.md).
     pub subplane_on_local: bool,
 }
 

@@ -67,67 +67,78 @@ pub enum PlanemapError {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlanemapConfig {
-    /// Margin γ of the visibility tests, as a multiple of the scene scale R (paper: γ ≈ 10R).
-    /// A plane point within γ of a sparse point (along the relevant ray) does not conflict.
+    /// Margin γ of the visibility tests, in units of the sampling scale R, ≥ 0: a plane
+    /// point within γ of a sparse point (along the relevant ray) does not conflict with it.
+    /// The paper's γ = 10R; tighter margins help courtyard's plain wall but cost the
+    /// noisier scenes more (docs/notes/courtyard.md).
     pub margin_factor: f64,
-    /// Confidence offset: a conflicting point P adds `max(0, C(P) − offset)`. The paper uses
-    /// 0.7 on PMVS NCC scores in [−1, 1] (only strong patches count). planemap's confidences
-    /// are in [0, 1] (synthetic, or derived from COLMAP track length and error), and a
-    /// COLMAP point seen by 2 views with 0.8 px error has C = 0.15: any positive offset
-    /// silences the short tracks that are often a wall's only points near a camera
-    /// (stairs: 2.8 points of depth accuracy), so the default is 0.
+    /// Confidence offset: a conflicting point P adds `max(0, C(P) − offset)` to the data
+    /// term, its confidence C in [0, 1] (synthetic, or from COLMAP track length and
+    /// reprojection error); any finite value. The paper uses 0.7 on PMVS NCC scores in
+    /// [−1, 1]; here any positive offset silences COLMAP's two-view points (C ≈ 0.15),
+    /// which are often a wall's only points near a camera (docs/notes/energy.md).
     pub confidence_offset: f64,
-    /// Truncation of the data term D (paper: 0.5). Also the cost of a plane that is behind
-    /// the camera or parallel to the pixel's ray.
+    /// Truncation of the data term D, in data-cost units, > 0: the paper's 0.5. Also the
+    /// cost of a plane that is behind the camera or parallel to the pixel's ray.
     pub data_truncation: f64,
-    /// Half-size in pixels of the square footprint each conflict is splatted to (0 = the
-    /// pixel itself, 1 = 3×3). The paper's PMVS points are dense enough to hit every pixel;
-    /// SfM points are sparse, so a conflict also counts for the pixels right around it.
+    /// Half-size in pixels of the square footprint each conflict is splatted to, in
+    /// 0..=16 (0 = the pixel itself, 1 = 3×3). The paper's PMVS points are dense enough to
+    /// hit every pixel; SfM points are far sparser, so a conflict also counts for the
+    /// pixels right around it.
     pub splat_radius: u32,
-    /// Truncation of the smoothness term V in units of R (paper: 10).
+    /// Truncation of the smoothness term V, in units of R, > 0: the paper's 10.
     pub smoothness_truncation: f64,
-    /// λ, the weight of the smoothness term (paper: set per dataset). 0.25, tuned across the
-    /// scenes in scenes/ together with `edge_gradient_threshold` and `crease_cost`.
+    /// λ, the weight of the smoothness term against the data term, ≥ 0 (the paper sets it
+    /// per dataset). Tuned on the Manhattan scenes together with `edge_gradient_threshold`
+    /// and `crease_cost` (docs/notes/energy.md).
     pub lambda: f64,
     /// The least V, in units of R, that a label change pays between two pixels where no
-    /// image edge passes (Sobel magnitude at most `edge_gradient_threshold` at both). The
-    /// paper's V is 0 wherever the two planes meet on the midpoint ray, so a plane can be
-    /// continued across a plain region up to its 3D crease with another plane at no cost
-    /// (a table top extended to the wall behind it); real creases between differently
-    /// oriented surfaces are nearly always image edges (their shading differs). 0 = the
-    /// paper's V. At most `smoothness_truncation`.
+    /// image edge passes (Sobel magnitude at most `edge_gradient_threshold` at both); in
+    /// [0, `smoothness_truncation`], 0 = the paper's V. The paper's V is 0 wherever the two
+    /// planes meet on the midpoint ray, so a plane can be continued across a plain region
+    /// up to its 3D crease with another at no cost (a table top up the wall behind it),
+    /// while real creases between differently oriented surfaces are nearly always image
+    /// edges. Lower let the demo's table top climb the wall, higher broke corridor's far
+    /// walls (docs/notes/energy.md).
     pub crease_cost: f64,
-    /// w_pq on a dominant line (paper: 0.01); 1 elsewhere.
+    /// w_pq, the smoothness weight of a pixel pair across a dominant line, in [0, 1]; 1
+    /// elsewhere. The paper's 0.01.
     pub dominant_line_weight: f64,
-    /// Sobel gradient magnitude (grey levels in [0, 1] per pixel; kernel normalised by 1/8
-    /// so a unit step gives 0.5) above which a pixel is an image edge. 0.015 is a 3 %
-    /// step, about 3.5 σ of the Sobel response to 1 % image noise: the shading step between
-    /// a wall and a ceiling is often only a few grey levels.
+    /// Sobel gradient magnitude above which a pixel is an image edge, in grey levels (in
+    /// [0, 1]) per pixel with the kernel normalised by 1/8 (a unit step gives 0.5); > 0.
+    /// About 3.5 σ of the Sobel response to 1 % image noise, since the shading step
+    /// between a wall and a ceiling is often only a few grey levels (docs/notes/energy.md).
     pub edge_gradient_threshold: f64,
-    /// Maximal angle in degrees between an image edge's direction and the direction toward a
-    /// vanishing point for the edge to count as a dominant line.
+    /// Largest angle, in degrees in [0, 90), between an image edge's direction and the
+    /// direction toward a vanishing point for the edge to count as a dominant line. Not
+    /// tuned.
     pub edge_angle_tolerance_deg: f64,
-    /// Keep only edge pixels whose gradient magnitude is a local maximum across the edge.
+    /// Keep only edge pixels whose gradient magnitude is a local maximum across the edge,
+    /// so that dominant lines are one pixel wide. Not tuned.
     pub edge_non_max_suppression: bool,
-    /// Label pruning: a plane is kept if at least this many sparse points seen by the view
-    /// (track contains it) lie within γ of it (paper's hypotheses need ≈ 50 points globally).
+    /// Label pruning: a plane is offered to the view if at least this many sparse points
+    /// seen by the view (their track contains it) lie within γ of it, a count. A low bar
+    /// for small clouds (the paper's hypotheses need ≈ 50 points globally).
     pub min_support: usize,
-    /// Label pruning: a plane is also kept if at least this many points projecting into the
-    /// view's image, seen by it or not, lie within γ of it (SfM tracks are incomplete). 0
-    /// disables this rule.
+    /// Label pruning: a plane is also offered if at least this many points projecting into
+    /// the view's image, seen by it or not, lie within γ of it, a count; 0 = off. SfM
+    /// tracks are incomplete, so a view's own points undercount a plane it sees.
     pub min_support_in_frustum: usize,
-    /// Label pruning: at most this many labels per view, the best-supported first (0 = no
-    /// cap). Bounds the α-expansion cost, which is linear in the number of labels.
+    /// Label pruning: at most this many labels per view, the best supported first; a
+    /// count, 0 = no cap. Bounds the α-expansion cost, which is linear in the number of
+    /// labels.
     pub max_labels: usize,
-    /// Weight of the optional photo-consistency data term (Sinha et al. 2009 style):
-    /// `D_p(h) += photo_weight · c_p(h)`, c the cost in [0, 1] of pixel p on plane h
-    /// against the best of the `photo.neighbours` neighbour views ([`crate::photo`]), in
-    /// data-cost units, ≥ 0; 0 = off.
+    /// Weight of the photo-consistency data term (Sinha et al. 2009 style), in data-cost
+    /// units, ≥ 0, 0 = off: `D_p(h) += photo_weight · c_p(h)`, c the cost in [0, 1] of
+    /// pixel p on plane h against the view's neighbours ([`crate::photo`]). It matters most
+    /// where sparse points are thin; a weight of 1 was worse on room and stairs
+    /// (docs/notes/energy.md).
     pub photo_weight: f64,
     /// How the photo term scores a pixel on a plane: 7×7 NCC against the best 2 of 3
-    /// neighbours, with adaptive support weights (Yoon and Kweon 2006; σc 0.15 grey
-    /// levels, σs 3 px) so that a contrasted foreground (a column, a picket) does not win
-    /// its background's windows. `photo.support_sigma_color = 0` gives box windows.
+    /// neighbours, with adaptive support weights (Yoon and Kweon 2006; σc 0.15, σs 3 px).
+    /// The weights keep a contrasted foreground (a column, a picket) from winning its
+    /// background's windows; chosen on the 13 scenes for about 1.1× the run time
+    /// (docs/notes/energy.md). `photo.support_sigma_color = 0` gives box windows.
     pub photo: PhotoConfig,
 }
 
