@@ -117,6 +117,15 @@ fn walk(
 }
 
 fn main() {
+    // The compiler's version, for the machine description of recorded benchmark runs.
+    let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into());
+    let version = std::process::Command::new(rustc)
+        .arg("--version")
+        .output()
+        .ok()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_else(|| "unknown".into());
+    println!("cargo:rustc-env=PLANEMAP_RUSTC={version}");
     let src = Path::new("src");
     println!("cargo:rerun-if-changed=src");
     let mut files = Vec::new();

@@ -171,7 +171,7 @@ fn support_weights(c: &mut Criterion) {
         .iter()
         .flat_map(|&radius| {
             let side = 2 * radius + 1;
-            [0.0f32, 0.15].into_iter().map(move |sigma| {
+            [0.0f64, 0.15].into_iter().map(move |sigma| {
                 let cfg = PhotoConfig {
                     window_radius: radius,
                     support_sigma_color: sigma,

@@ -180,6 +180,14 @@ struct ClassifyMapArgs {
 struct BenchArgs {
     /// Scene files or folders of *.toml (default: scenes/).
     scenes: Vec<PathBuf>,
+    /// Keep the run: results.md, results.json and a README (date, commit, command, machine)
+    /// under RESULTS_DIR/DATE-COMMIT/, and update README.md's results table (between its
+    /// markers) when run from the project's folder.
+    #[arg(long)]
+    record: bool,
+    /// Where --record keeps runs.
+    #[arg(long, default_value = "docs/results")]
+    results_dir: PathBuf,
     /// Output directory.
     #[arg(short, long, default_value = "bench-out")]
     output: PathBuf,
@@ -750,6 +758,18 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
         "wrote results.json, results.md, accuracy.png, time.png and maps/ to {}",
         a.output.display()
     );
+    if a.record {
+        let root = &a.results_dir;
+        use planemap::bench::record::{record, update_readme, RunInfo};
+        let command: Vec<String> = std::env::args().collect();
+        let info = RunInfo::now(command.join(" "));
+        let dir = record(&results, &a.output, root, &info)?;
+        println!("recorded the run in {}", dir.display());
+        let link = dir.to_string_lossy().replace('\\', "/");
+        if update_readme(std::path::Path::new("README.md"), &results, &info, &link)? {
+            println!("updated the results table of README.md");
+        }
+    }
     Ok(())
 }
 

@@ -305,29 +305,3 @@ fn pmvs_bad_inputs() -> Result<(), Box<dyn std::error::Error>> {
     assert_names(&pmvs::read_pmvs(dir.path()).unwrap_err(), &txt, "line 3");
     Ok(())
 }
-
-/// Throughput of the PLY writer and reader on a million points (run with `--ignored
-/// --nocapture`; prints timings, checks the round trip).
-#[test]
-#[ignore]
-fn ply_throughput_million_points() -> Result<(), Box<dyn std::error::Error>> {
-    let n = 1_000_000;
-    let points = ply::PlyPoints {
-        positions: (0..n)
-            .map(|i| Vector3::new(i as f64 * 0.5, (i % 977) as f64, 0.25))
-            .collect(),
-        normals: Some(vec![Vector3::new(0.0, 0.0, 1.0); n]),
-        colors: Some(vec![[10, 20, 30]; n]),
-    };
-    let dir = tempfile::tempdir()?;
-    let path = dir.path().join("big.ply");
-    let t = std::time::Instant::now();
-    ply::write_ply_points_path(&path, &points)?;
-    let write = t.elapsed();
-    let t = std::time::Instant::now();
-    let back = ply::read_ply_points_path(&path)?;
-    let read = t.elapsed();
-    println!("1M points, 27 MB: write {write:?}, read {read:?}");
-    assert_eq!(back, points);
-    Ok(())
-}

@@ -391,10 +391,6 @@ fn coarse_families_are_densified_to_the_step_target() {
     assert!(err.contains("max_step_px"), "{err}");
 }
 
-/// Two views of the floor z = 0, the second shifted sideways: view 0's pixels whose
-/// floor point falls outside view 1 are not covisible, the rest are, unless view 1's
-/// depth there says something nearer hides the floor.
-
 /// A cost that is a parabola in inverse depth with its minimum between two planes:
 /// WTA is off by up to half a plane step, the refinement recovers the true depth.
 #[test]

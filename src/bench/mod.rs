@@ -9,6 +9,7 @@
 
 pub mod cache;
 pub mod font;
+pub mod record;
 pub mod report;
 
 use std::path::{Path, PathBuf};

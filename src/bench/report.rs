@@ -22,7 +22,7 @@ pub fn write_reports(results: &BenchResults, out: &Path) -> Result<(), BenchErro
     Ok(())
 }
 
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
+pub(super) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
     let tmp = path.with_extension("tmp");
     std::fs::write(&tmp, bytes).map_err(|e| io_err(&tmp, e))?;
     std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
@@ -62,6 +62,13 @@ fn find<'a>(methods: &'a [MethodResult], name: &str) -> Option<&'a MethodResult>
 /// The summary table (depth within 1% and F-score per scene and method), the full table
 /// and the time-per-stage table, in Markdown.
 pub fn markdown(results: &BenchResults) -> String {
+    let mut s = summary_table(results);
+    s.push_str(&details_table(results));
+    s
+}
+
+/// The summary: depth within 1 % / F-score per scene and method, with the means.
+pub fn summary_table(results: &BenchResults) -> String {
     let names = method_names(results);
     let mut s = String::new();
     s.push_str(&format!(
@@ -105,7 +112,14 @@ pub fn markdown(results: &BenchResults) -> String {
     for (d, f) in &sums {
         s.push_str(&format!(" **{} / {}** |", pct(d / count), pct(f / count)));
     }
-    s.push_str("\n\nAll metrics:\n\n");
+    s.push('\n');
+    s
+}
+
+/// Every metric per scene and method.
+fn details_table(results: &BenchResults) -> String {
+    let mut s = String::new();
+    s.push_str("\nAll metrics:\n\n");
     s.push_str("| scene | method | ≤0.5% | ≤1% | ≤2% | MAE | complete | normal° | ≤10° | planes | over/under | τ | cloud acc | cloud comp | F | time s | peak MB (+growth) |\n");
     s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for sc in &results.scenes {

@@ -183,6 +183,9 @@ pub fn texture_scores(
 mod tests {
     use super::*;
 
+    /// Two views of the floor z = 0, the second shifted sideways: view 0's pixels whose
+    /// floor point falls outside view 1 are not covisible, the rest are, unless view 1's
+    /// depth there says something nearer hides the floor.
     #[test]
     fn covisible_pixels_are_seen_by_another_view_unhidden() {
         let cam = crate::geometry::Camera::pinhole(40, 30, 30.0, 30.0, 20.0, 15.0);

@@ -693,24 +693,3 @@ fn deterministic_across_thread_counts() {
     assert_eq!(a, run(2));
     assert_eq!(a.len(), 6, "{a:?}");
 }
-
-/// Near-linear cost check (run with `--ignored`): 200k offsets on 40 planes.
-#[test]
-#[ignore]
-fn mean_shift_timing() {
-    let mut rng = ChaCha8Rng::seed_from_u64(1);
-    let x: Vec<f64> = (0..200_000)
-        .map(|i| (i % 40) as f64 * 0.5 + rng.random_range(-0.01..0.01))
-        .collect();
-    for kernel in [Kernel::Flat, Kernel::Gaussian] {
-        let t = std::time::Instant::now();
-        let modes = mean_shift_modes(&Offsets::new(x.clone()), 0.02, kernel, 100);
-        let strong = modes.iter().filter(|m| m.1 >= 50).count();
-        eprintln!(
-            "{kernel:?}: {} modes, {strong} strong, {:?}",
-            modes.len(),
-            t.elapsed()
-        );
-        assert_eq!(strong, 40);
-    }
-}

@@ -370,7 +370,7 @@ impl<'a> Context<'a> {
         let n = w * h;
         let r = self.cfg.window_radius as usize;
         let norm = self.cfg.effective_normalization();
-        let min_frac = self.cfg.min_valid_fraction as f64;
+        let min_frac = self.cfg.min_valid_fraction;
         let refp = &self.ref_planar;
         let valid = |p: usize| warped[p].is_finite();
         let wv = |c: usize, p: usize| {
@@ -433,7 +433,7 @@ impl<'a> Context<'a> {
         let n = w * h;
         let r = self.cfg.window_radius as usize;
         let norm = self.cfg.effective_normalization();
-        let min_frac = self.cfg.min_valid_fraction as f64;
+        let min_frac = self.cfg.min_valid_fraction;
         let refp = &self.ref_planar;
         moments.build(|p, vals| {
             if warped[p].is_finite() {

@@ -193,6 +193,7 @@ pub struct ViewSummary {
 /// out/crease_hypotheses.json   the crease hypotheses of the first labelling (for --resume)
 /// out/fused.ply                back-projected, cross-view consistent points
 /// out/summary.json             this summary
+/// out/config.toml              the effective configuration (every key, with its doc)
 /// ```
 pub fn run(
     scene: &Scene,
@@ -369,6 +370,13 @@ pub fn run(
     let json = serde_json::to_string_pretty(&summary).map_err(|e| write_err(&path, e))?;
     write_atomic::<std::io::Error, _>(&path, |f: &mut BufWriter<File>| {
         std::io::Write::write_all(f, json.as_bytes())
+    })
+    .map_err(|e| write_err(&path, e))?;
+    // The configuration the run used, every key spelled out: `--config` reads it back.
+    let path = out.join("config.toml");
+    let text = cfg.describe()?;
+    write_atomic::<std::io::Error, _>(&path, |f: &mut BufWriter<File>| {
+        std::io::Write::write_all(f, text.as_bytes())
     })
     .map_err(|e| write_err(&path, e))?;
     Ok((prepared, views, summary))
