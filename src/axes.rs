@@ -791,7 +791,8 @@ const MAX_WALK_PITCH_DEG: f64 = 30.0;
 /// as [`camera_vertical`] requires (a roll common to every camera cannot be told from a
 /// tilted world: upright cameras are the assumption, as there). Which known direction is a
 /// wall normal is read off the images' mean "up" `u` (projected across `r`): `r × d` must
-/// lie within [`MAX_WALK_PITCH_DEG`] of `u` (the best such `d` is taken). `None` when a known direction already lies within that
+/// lie within `MAX_WALK_PITCH_DEG` (30°) of `u` (the best such `d` is taken). `None` when a
+/// known direction already lies within that
 /// angle of `u` (the vertical is known: nothing to add, and the horizontal across it and a
 /// wall normal is then the walk's own direction, whose planes are the hardest to tell
 /// apart), or when no known direction qualifies.
@@ -837,7 +838,7 @@ const SAME_DIRECTION_DEG: f64 = 10.0;
 
 /// The directions that complete the Manhattan directions `known` (fewer than three) with
 /// the vertical `up` (unit): `up` itself unless a known direction is within
-/// [`SAME_DIRECTION_DEG`] of it, then, while still fewer than three, the horizontal across
+/// `SAME_DIRECTION_DEG` of it, then, while still fewer than three, the horizontal across
 /// `up` and each horizontal known direction. Nothing for three or more: the points' own
 /// estimate is the finer one.
 pub fn vertical_completion(known: &[Vector3<f64>], up: &Vector3<f64>) -> Vec<Vector3<f64>> {

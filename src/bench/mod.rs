@@ -4,7 +4,7 @@
 //! ([`crate::baselines::delaunay`]) — and scores all of them with the same [`crate::eval::metrics`] against the scene's
 //! ground truth. [`report`] writes results.json, Markdown tables and PNG charts.
 //!
-//! Every method's depth maps are fused by the same [`crate::pipeline::fuse`] (planemap's own
+//! Every method's depth maps are fused by the same [`crate::pipeline::fuse()`] (planemap's own
 //! run does exactly that), so the point-cloud scores compare depth maps, not fusion rules.
 
 pub mod cache;

@@ -11,7 +11,7 @@
 //! - [`knn`] and [`logistic`]: the two classifiers (the paper reports both working alike);
 //! - [`dataset`]: training cells from synthetic workspaces' ground truth (`gt/planes/*.png`,
 //!   0 = non-planar; sky, depth 0, skipped) and precision / recall of "non-planar";
-//! - [`format`]: the versioned little-endian model file; [`default_model`] is embedded.
+//! - [`mod@format`]: the versioned little-endian model file; [`default_model`] is embedded.
 //!
 //! # Using the planarity map in the planemap energy
 //!

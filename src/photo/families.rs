@@ -140,7 +140,7 @@ pub enum Spacing {
 }
 
 /// One family of parallel planes in sweep order, with how they are spaced: what
-/// [`refine_subplane`] needs to interpolate between neighbouring planes.
+/// [`super::refine_subplane`] needs to interpolate between neighbouring planes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlaneFamily {
     /// The planes, consecutive in sweep order.

@@ -7,7 +7,7 @@
 //! `L_r(p, k) = C(p, k) + min(L_r(p−r, k), L_r(p−r, k±1) + P1, min_j L_r(p−r, j) + P2) − min_j L_r(p−r, j)`,
 //!
 //! and the aggregated cost is the sum over the directions. Consecutive planes of a sweep family
-//! are about a pixel of disparity apart ([`crate::baseline`]'s plane density), so `P1` is the
+//! are about a pixel of disparity apart ([`super::multisweep`]'s plane density), so `P1` is the
 //! penalty of a one-pixel step along a slanted surface and `P2` that of a depth jump. `P2` is
 //! lowered across a grey-level edge of the reference image, where depth edges are likely.
 //!

@@ -126,7 +126,8 @@ pub fn winner_takes_all(
 }
 
 /// Plane-sweep stereo: [`plane_cost_volume`] then [`winner_takes_all`]. `planes` is any
-/// family — [`fronto_parallel_planes`], [`axis_sweep_planes`], or given hypotheses.
+/// family — [`super::fronto_parallel_planes`], [`super::axis_sweep_planes`], or given
+/// hypotheses.
 pub fn plane_sweep(
     reference: &View,
     ref_image: &ImageF32,

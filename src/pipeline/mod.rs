@@ -10,7 +10,7 @@
 //!   multi-view confirmation of the non-planar label;
 //! - [`creases`]: the crease pass between the two labellings;
 //! - [`outputs`]: the files of a run, and what `--resume` reads back;
-//! - [`fuse`]: the fused point cloud.
+//! - [`mod@fuse`]: the fused point cloud ([`fuse()`]).
 
 pub mod config;
 pub mod creases;

@@ -34,7 +34,7 @@ pub struct Prepared {
     /// lie in front of the camera, since few sparse points support them.
     pub sweep_hypotheses: usize,
     /// One entry per crease hypothesis ([`crate::hypotheses::crease_hypotheses`]) — the very
-    /// last of `hypotheses`, after the sweep's, added by [`run`] after a first labelling —
+    /// last of `hypotheses`, after the sweep's, added by [`super::run`] after a first labelling —
     /// in order: the indices of the views that see it, the only views offered it. Empty
     /// after [`prepare`].
     pub crease_views: Vec<Vec<usize>>,

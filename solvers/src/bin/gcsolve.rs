@@ -61,7 +61,7 @@ struct Args {
     /// Force the capacity type.
     #[arg(long)]
     cost_type: Option<String>,
-    /// Where to write the labels (int32 .npy); default DIR/labels_<algo>.npy.
+    /// Where to write the labels (int32 .npy); default `DIR/labels_<algo>.npy`.
     #[arg(long)]
     out: Option<PathBuf>,
 }
