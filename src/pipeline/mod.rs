@@ -181,6 +181,16 @@ pub struct ViewSummary {
     pub resumed: bool,
 }
 
+/// Creates `out` and checks that a file can be written there, so that a read-only or
+/// mistyped output folder fails at once rather than after the global stages.
+fn check_writable(out: &Path) -> Result<(), PipelineError> {
+    std::fs::create_dir_all(out).map_err(|e| write_err(out, e))?;
+    let probe = crate::io::atomic::temp_path(&out.join(".planemap-write-check"));
+    std::fs::write(&probe, b"").map_err(|e| write_err(out, e))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// Runs the whole chain on a scene and writes into `out`:
 ///
 /// ```text
@@ -202,7 +212,27 @@ pub fn run(
     opts: &RunOptions,
     progress: &Progress,
 ) -> Result<(Prepared, Vec<ViewPlanemap>, RunSummary), PipelineError> {
+    // Everything cheap is checked before the global stages, which take minutes.
     cfg.validate()?;
+    crate::io::check_image_names(scene.views.iter().map(|v| v.name.as_str()))
+        .map_err(|e| PipelineError::Scene(e.to_string()))?;
+    let indices: Vec<usize> = match &opts.views {
+        Some(v) => {
+            if let Some(&bad) = v.iter().find(|&&i| i >= scene.views.len()) {
+                return Err(PipelineError::Scene(format!(
+                    "view index {bad} out of range (the scene has {} views, 0..{})",
+                    scene.views.len(),
+                    scene.views.len()
+                )));
+            }
+            // Each view once, in the order given: a view listed twice would be labelled
+            // twice at once, its files written by two threads.
+            let mut seen = std::collections::BTreeSet::new();
+            v.iter().copied().filter(|i| seen.insert(*i)).collect()
+        }
+        None => (0..scene.views.len()).collect(),
+    };
+    check_writable(out)?;
     let scene = scene.undistorted();
     let bar = progress.bar(3, "sparse stages");
     let prepared = prepare(&scene, cfg)?;
@@ -214,18 +244,6 @@ pub fn run(
         prepared.axes.directions.len(),
         prepared.hypotheses.len()
     ));
-    let indices: Vec<usize> = match &opts.views {
-        Some(v) => {
-            if let Some(&bad) = v.iter().find(|&&i| i >= scene.views.len()) {
-                return Err(PipelineError::Scene(format!(
-                    "view index {bad} out of range (the scene has {} views)",
-                    scene.views.len()
-                )));
-            }
-            v.clone()
-        }
-        None => (0..scene.views.len()).collect(),
-    };
     let t = Instant::now();
     let mut prepared = prepared;
     // With crease hypotheses: a first labelling of every view (nothing written), the
