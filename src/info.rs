@@ -3,8 +3,6 @@
 
 use std::collections::{HashMap, HashSet};
 use std::fmt;
-use std::fs::File;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use thiserror::Error;
@@ -13,6 +11,7 @@ use crate::geometry::CameraModel;
 use crate::io::colmap::{
     find_model, read_model_bin, read_model_text, ColmapError, ColmapModel, ModelFormat,
 };
+use crate::scene::SceneError;
 
 /// Errors of model summarising.
 #[derive(Debug, Error)]
@@ -162,50 +161,13 @@ pub struct ModelInfo {
     pub warnings: Vec<InfoWarning>,
 }
 
-/// Width and height from a PNG / JPEG (or other format the `image` crate knows) header,
-/// without decoding the pixels.
+/// Width and height from a PNG / JPEG header, without decoding the pixels; the format is
+/// detected from the content, as [`crate::scene::View::load_image`] does.
 pub fn image_size(path: &Path) -> Result<(u32, u32), String> {
-    let mut head = [0u8; 2];
-    let is_jpeg = File::open(path)
-        .and_then(|mut f| f.read_exact(&mut head))
-        .map(|_| head == [0xFF, 0xD8])
-        .unwrap_or(false);
-    if is_jpeg {
-        let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
-        return jpeg_size(&bytes).ok_or_else(|| "no JPEG frame header found".to_string());
-    }
-    image::image_dimensions(path).map_err(|e| e.to_string())
-}
-
-/// Size from the first SOFn marker of a JPEG stream (the `image` crate is built without its
-/// JPEG decoder here).
-fn jpeg_size(b: &[u8]) -> Option<(u32, u32)> {
-    let mut i = 2;
-    while i + 4 <= b.len() {
-        if b[i] != 0xFF {
-            return None;
-        }
-        let marker = b[i + 1];
-        if marker == 0xFF {
-            i += 1;
-            continue;
-        }
-        // Markers without a length field.
-        if marker == 0x01 || (0xD0..=0xD9).contains(&marker) {
-            i += 2;
-            continue;
-        }
-        let len = usize::from(u16::from_be_bytes([b[i + 2], b[i + 3]]));
-        let is_sof = (0xC0..=0xCF).contains(&marker) && !matches!(marker, 0xC4 | 0xC8 | 0xCC);
-        if is_sof {
-            let s = b.get(i + 4..i + 9)?;
-            let h = u32::from(u16::from_be_bytes([s[1], s[2]]));
-            let w = u32::from(u16::from_be_bytes([s[3], s[4]]));
-            return Some((w, h));
-        }
-        i += 2 + len;
-    }
-    None
+    crate::scene::image_file_size(path).map_err(|e| match e {
+        SceneError::Image { message, .. } => message,
+        other => other.to_string(),
+    })
 }
 
 /// The `p`-th percentile (0..=100) of sorted values, nearest rank.
@@ -527,13 +489,15 @@ mod tests {
     }
 
     #[test]
-    fn jpeg_header_size() {
-        // SOI, APP0 (len 4), SOF0 with height 0x0102, width 0x0304.
-        let b = [
-            0xFF, 0xD8, 0xFF, 0xE0, 0x00, 0x04, 0x00, 0x00, 0xFF, 0xC0, 0x00, 0x11, 0x08, 0x01,
-            0x02, 0x03, 0x04,
-        ];
-        assert_eq!(jpeg_size(&b), Some((0x0304, 0x0102)));
-        assert_eq!(jpeg_size(&b[..10]), None);
+    fn image_size_reads_headers_by_content() {
+        let dir = tempfile::tempdir().unwrap();
+        let jpeg_as_png = dir.path().join("a.png");
+        image::RgbImage::new(7, 5)
+            .save_with_format(&jpeg_as_png, image::ImageFormat::Jpeg)
+            .unwrap();
+        assert_eq!(image_size(&jpeg_as_png), Ok((7, 5)));
+        let junk = dir.path().join("b.png");
+        std::fs::write(&junk, b"not an image").unwrap();
+        assert!(image_size(&junk).is_err());
     }
 }

@@ -2,10 +2,11 @@
 //! a clear error naming the file and what was expected (or a warning from `info`), never a
 //! panic, an abort or a silent run that writes garbage.
 
+use std::path::Path;
 use std::process::Output;
 
 mod common;
-use common::planemap;
+use common::{planemap, synth_tiny_demo};
 
 fn text(out: &Output) -> (String, String) {
     (
@@ -29,6 +30,27 @@ fn clean_failure(out: &Output) -> String {
     );
     assert!(!stderr.contains("panicked"), "{stderr}");
     stderr
+}
+
+fn success(out: &Output) -> String {
+    let (stdout, stderr) = text(out);
+    assert!(
+        out.status.success(),
+        "expected success\nstdout: {stdout}\nstderr: {stderr}"
+    );
+    stdout
+}
+
+fn run_view0(dir: &Path, out: &Path) -> Output {
+    planemap()
+        .args(["-q", "run", "--views", "0", "--model"])
+        .arg(dir.join("sparse"))
+        .arg("--images")
+        .arg(dir.join("images"))
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap()
 }
 
 // --- 7. synth sizes --------------------------------------------------------------------
@@ -69,4 +91,70 @@ fn synth_with_a_billion_cameras_is_an_error_not_an_abort() {
             && err.contains("limit of 10000"),
         "{err}"
     );
+}
+
+// --- 8. images: size from the header before decoding; format from the content (11) -----
+
+/// A PNG declaring `w`x`h` RGB whose pixel data is a few bytes of an unfinished zlib
+/// stream: what a small file claiming a huge image looks like up to the first IDAT chunk.
+fn png_header_only(w: u32, h: u32) -> Vec<u8> {
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in bytes {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 == 1 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut chunk = |kind: &[u8], data: &[u8]| {
+        png.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let body = [kind, data].concat();
+        png.extend_from_slice(&body);
+        png.extend_from_slice(&crc32(&body).to_be_bytes());
+    };
+    let mut ihdr = w.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&h.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    chunk(b"IHDR", &ihdr);
+    chunk(b"IDAT", &[0x78, 0x9c, 0xed, 0xc1, 0x01, 0x0d]);
+    chunk(b"IEND", &[]);
+    png
+}
+
+#[test]
+fn oversized_image_is_rejected_from_its_header() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("demo");
+    synth_tiny_demo(&dir);
+    let image = dir.join("images").join("view_0000.png");
+    std::fs::write(&image, png_header_only(20_000, 12_000)).unwrap();
+    let err = clean_failure(&run_view0(&dir, &tmp.path().join("out")));
+    assert!(
+        err.contains("view_0000.png: image is 20000x12000 but its camera says 96x72"),
+        "{err}"
+    );
+}
+
+#[test]
+fn jpeg_named_png_is_read_by_its_content() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("demo");
+    synth_tiny_demo(&dir);
+    for entry in std::fs::read_dir(dir.join("images")).unwrap() {
+        let path = entry.unwrap().path();
+        let img = image::open(&path).unwrap();
+        img.save_with_format(&path, image::ImageFormat::Jpeg)
+            .unwrap();
+        assert_eq!(&std::fs::read(&path).unwrap()[..2], &[0xFF, 0xD8]);
+    }
+    let out_dir = tmp.path().join("out");
+    success(&run_view0(&dir, &out_dir));
+    assert!(out_dir.join("planes.json").is_file());
 }
