@@ -7,9 +7,9 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use crate::geometry::CameraModel;
+use crate::geometry::{quaternion_norm, CameraModel};
 use crate::io::colmap::{
-    find_model, read_model_bin, read_model_text, ColmapError, ColmapModel, ModelFormat,
+    find_model, read_model_bin, read_model_text, ColmapError, ColmapImage, ColmapModel, ModelFormat,
 };
 use crate::scene::SceneError;
 
@@ -77,7 +77,25 @@ pub enum InfoWarning {
         /// COLMAP `camera_id`.
         camera_id: u32,
     },
+    /// Images whose rotation quaternion is not unit length beyond
+    /// [`QUATERNION_WARN_TOLERANCE`]; they are renormalised as COLMAP does (quaternions too
+    /// far from unit length are read errors).
+    QuaternionsRenormalised {
+        /// How many images.
+        count: usize,
+        /// The image with the largest `|‖q‖ − 1|`.
+        worst_image_id: u32,
+        /// Its name.
+        worst_name: String,
+        /// Its quaternion's norm.
+        worst_norm: f64,
+    },
 }
+
+/// Rotation quaternions whose norm differs from 1 by more than this are reported by `info`
+/// ([`InfoWarning::QuaternionsRenormalised`]): full-precision writers (COLMAP, pycolmap,
+/// planemap) stay within ~1e-15, so anything beyond 1e-9 lost digits or was edited.
+pub const QUATERNION_WARN_TOLERANCE: f64 = 1e-9;
 
 impl fmt::Display for InfoWarning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -114,6 +132,17 @@ impl fmt::Display for InfoWarning {
             InfoWarning::UnusedCamera { camera_id } => {
                 write!(f, "camera {camera_id} is used by no image")
             }
+            InfoWarning::QuaternionsRenormalised {
+                count,
+                worst_image_id,
+                worst_name,
+                worst_norm,
+            } => write!(
+                f,
+                "{count} image(s) have a rotation quaternion that is not unit length (worst: \
+                 image {worst_image_id} ({worst_name}), norm {worst_norm:?}); renormalised as \
+                 COLMAP does"
+            ),
         }
     }
 }
@@ -196,6 +225,23 @@ impl ModelInfo {
         images_dir: Option<&Path>,
     ) -> ModelInfo {
         let mut warnings = Vec::new();
+        let off_unit: Vec<(&ColmapImage, f64)> = model
+            .images
+            .iter()
+            .map(|im| (im, quaternion_norm(im.qvec)))
+            .filter(|(_, n)| !n.is_finite() || (n - 1.0).abs() > QUATERNION_WARN_TOLERANCE)
+            .collect();
+        if let Some((worst, norm)) = off_unit
+            .iter()
+            .max_by(|a, b| (a.1 - 1.0).abs().total_cmp(&(b.1 - 1.0).abs()))
+        {
+            warnings.push(InfoWarning::QuaternionsRenormalised {
+                count: off_unit.len(),
+                worst_image_id: worst.image_id,
+                worst_name: worst.name.clone(),
+                worst_norm: *norm,
+            });
+        }
         let mut uses: HashMap<u32, usize> = HashMap::new();
         for im in &model.images {
             *uses.entry(im.camera_id).or_default() += 1;
@@ -499,5 +545,27 @@ mod tests {
         let junk = dir.path().join("b.png");
         std::fs::write(&junk, b"not an image").unwrap();
         assert!(image_size(&junk).is_err());
+    }
+
+    #[test]
+    fn renormalised_quaternions_are_warned_about() {
+        let mut m = model();
+        m.images[1].qvec = [1.0004, 0.0, 0.0, 0.0];
+        m.images[2].qvec = [0.0, 0.0, 0.99995, 0.0];
+        let info = ModelInfo::from_model(&m, PathBuf::from("m"), ModelFormat::Text, None);
+        assert!(
+            info.warnings
+                .contains(&InfoWarning::QuaternionsRenormalised {
+                    count: 2,
+                    worst_image_id: 2,
+                    worst_name: "b.png".into(),
+                    worst_norm: 1.0004
+                }),
+            "{:?}",
+            info.warnings
+        );
+        assert!(info
+            .to_string()
+            .contains("2 image(s) have a rotation quaternion"));
     }
 }

@@ -2,7 +2,7 @@
 //! a clear error naming the file and what was expected (or a warning from `info`), never a
 //! panic, an abort or a silent run that writes garbage.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Output;
 
 mod common;
@@ -41,6 +41,52 @@ fn success(out: &Output) -> String {
     stdout
 }
 
+/// The tiny demo with only the text model in `sparse/` (so edits to it are what is read).
+fn text_demo(dir: &Path) -> PathBuf {
+    synth_tiny_demo(dir);
+    let sparse = dir.join("sparse");
+    for stem in ["cameras", "images", "points3D"] {
+        std::fs::remove_file(sparse.join(format!("{stem}.bin"))).unwrap();
+    }
+    sparse
+}
+
+fn edit(path: &Path, f: impl FnOnce(String) -> String) {
+    let s = std::fs::read_to_string(path).unwrap();
+    std::fs::write(path, f(s)).unwrap();
+}
+
+/// Applies `f` to the whitespace fields of the first data line (not `#`) of a text file.
+fn edit_first_record(path: &Path, f: impl FnOnce(&mut Vec<String>)) {
+    edit(path, |s| {
+        let mut done = false;
+        let mut f = Some(f);
+        let lines: Vec<String> = s
+            .lines()
+            .map(|l| {
+                if done || l.starts_with('#') || l.trim().is_empty() {
+                    return l.to_string();
+                }
+                done = true;
+                let mut fields: Vec<String> = l.split_whitespace().map(str::to_string).collect();
+                (f.take().unwrap())(&mut fields);
+                fields.join(" ")
+            })
+            .collect();
+        lines.join("\n") + "\n"
+    });
+}
+
+fn info(sparse: &Path, images: &Path) -> Output {
+    planemap()
+        .arg("info")
+        .arg(sparse)
+        .arg("--images")
+        .arg(images)
+        .output()
+        .unwrap()
+}
+
 fn run_view0(dir: &Path, out: &Path) -> Output {
     planemap()
         .args(["-q", "run", "--views", "0", "--model"])
@@ -51,6 +97,54 @@ fn run_view0(dir: &Path, out: &Path) -> Output {
         .arg(out)
         .output()
         .unwrap()
+}
+
+// --- 6. quaternions --------------------------------------------------------------------
+
+#[test]
+fn scaled_or_zero_quaternion_is_an_error_naming_file_image_and_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("demo");
+    let sparse = text_demo(&dir);
+    let images_txt = sparse.join("images.txt");
+    let original = std::fs::read_to_string(&images_txt).unwrap();
+    // The first image record is on line 5, after COLMAP's four comment lines.
+    assert_eq!(original.lines().nth(4).unwrap().split(' ').count(), 10);
+    for scale in [2.0, 0.0] {
+        std::fs::write(&images_txt, &original).unwrap();
+        edit_first_record(&images_txt, |f| {
+            for q in &mut f[1..5] {
+                *q = format!("{:?}", q.parse::<f64>().unwrap() * scale);
+            }
+        });
+        let err = clean_failure(&info(&sparse, &dir.join("images")));
+        assert!(
+            err.contains("images.txt: line 5: image 1 (view_0000.png): quaternion")
+                && err.contains("expected a unit quaternion"),
+            "{err}"
+        );
+        let err = clean_failure(&run_view0(&dir, &tmp.path().join("out")));
+        assert!(err.contains("images.txt: line 5: image 1"), "{err}");
+    }
+}
+
+#[test]
+fn near_unit_quaternion_is_renormalised_with_a_warning() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("demo");
+    let sparse = text_demo(&dir);
+    edit_first_record(&sparse.join("images.txt"), |f| {
+        for q in &mut f[1..5] {
+            *q = format!("{:?}", q.parse::<f64>().unwrap() * 1.0004);
+        }
+    });
+    let stdout = success(&info(&sparse, &dir.join("images")));
+    assert!(
+        stdout.contains("1 image(s) have a rotation quaternion that is not unit length")
+            && stdout.contains("image 1 (view_0000.png)")
+            && stdout.contains("renormalised"),
+        "{stdout}"
+    );
 }
 
 // --- 7. synth sizes --------------------------------------------------------------------

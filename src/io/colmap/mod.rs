@@ -25,7 +25,9 @@ use std::path::{Path, PathBuf};
 use nalgebra::Vector3;
 use thiserror::Error;
 
-use crate::geometry::{rigid_from_colmap, rigid_to_colmap, Camera, CameraError};
+use crate::geometry::{
+    colmap_rotation, rigid_from_colmap, rigid_to_colmap, Camera, CameraError, PoseError,
+};
 use crate::scene::{Scene, SceneError, SparseCloud, View};
 
 pub use binary::{
@@ -148,6 +150,22 @@ pub enum ColmapError {
         /// Why.
         source: CameraError,
     },
+    /// An image's rotation quaternion is zero, non-finite or far from unit length (a
+    /// near-unit one is renormalised as COLMAP does; see
+    /// [`crate::geometry::QUATERNION_NORM_TOLERANCE`]).
+    #[error("{}: {at}: image {image_id} ({name}): {source}", file.display())]
+    BadQuaternion {
+        /// The file.
+        file: PathBuf,
+        /// Where the image record is (its line, or the offset of `qw`).
+        at: Location,
+        /// The image's id.
+        image_id: u32,
+        /// The image's name.
+        name: String,
+        /// The quaternion and its norm.
+        source: PoseError,
+    },
     /// A NaN or infinite value in a pose, point or parameter.
     #[error("{}: {at}: {what} is {value}, expected a finite number", file.display())]
     NonFinite {
@@ -199,6 +217,7 @@ impl ColmapError {
             | ColmapError::ParamCount { file, .. }
             | ColmapError::BadCamera { file, .. }
             | ColmapError::NonFinite { file, .. }
+            | ColmapError::BadQuaternion { file, .. }
             | ColmapError::Invalid { file, .. }
             | ColmapError::Inconsistent { file, .. } => *file = path.to_path_buf(),
             ColmapError::NoModel { .. } | ColmapError::Unwritable(_) | ColmapError::Scene(_) => {}
@@ -232,7 +251,10 @@ pub struct Point2D {
 pub struct ColmapImage {
     /// COLMAP `image_id`.
     pub image_id: u32,
-    /// Rotation of `cam_from_world` as a quaternion `(w, x, y, z)`, stored as read.
+    /// Rotation of `cam_from_world` as a quaternion `(w, x, y, z)`, stored as read (so that
+    /// files round-trip); readers reject one whose norm is not within
+    /// [`crate::geometry::QUATERNION_NORM_TOLERANCE`] of 1, and [`ColmapModel::to_scene`]
+    /// renormalises.
     pub qvec: [f64; 4],
     /// Translation of `cam_from_world`.
     pub tvec: [f64; 3],
@@ -382,6 +404,12 @@ impl ColmapModel {
                     message: format!("image {} has a non-finite value", im.image_id),
                 });
             }
+            if let Err(e) = colmap_rotation(im.qvec) {
+                return Err(ColmapError::Inconsistent {
+                    file: file("images"),
+                    message: format!("image {} ({}): {e}", im.image_id, im.name),
+                });
+            }
         }
         let mut points = HashSet::new();
         for p in &self.points3d {
@@ -423,7 +451,8 @@ impl ColmapModel {
 
     /// Converts to a [`Scene`]: views sorted by `image_id` (so the result does not depend on
     /// file order), cameras copied as they are (still distorted; see
-    /// [`Scene::undistorted`]), `image_path = images_dir/name` when `images_dir` is given.
+    /// [`Scene::undistorted`]), rotations renormalised (see [`colmap_rotation`]),
+    /// `image_path = images_dir/name` when `images_dir` is given.
     /// Point tracks become sorted, deduplicated view indices; `errors` are COLMAP's
     /// reprojection errors (0 where COLMAP wrote a negative "unknown"); normals are `None`;
     /// confidence is [`point_confidence`].
@@ -440,11 +469,18 @@ impl ColmapModel {
         let mut views = Vec::with_capacity(order.len());
         for (idx, im) in order.iter().enumerate() {
             view_of_image.insert(im.image_id, idx as u32);
+            let camera = cams[&im.camera_id];
+            // `validate` checked the quaternion already; keep the error path anyway.
+            let cam_from_world =
+                rigid_from_colmap(im.qvec, im.tvec).map_err(|e| ColmapError::Inconsistent {
+                    file: PathBuf::from("images"),
+                    message: format!("image {} ({}): {e}", im.image_id, im.name),
+                })?;
             views.push(View {
                 id: im.image_id,
                 name: im.name.clone(),
-                camera: cams[&im.camera_id].clone(),
-                cam_from_world: rigid_from_colmap(im.qvec, im.tvec),
+                camera: camera.clone(),
+                cam_from_world,
                 image_path: images_dir.map(|d| d.join(&im.name)),
             });
         }

@@ -12,7 +12,7 @@ use std::io::{BufRead, Write};
 use std::path::PathBuf;
 use std::str::FromStr;
 
-use crate::geometry::{Camera, CameraModel};
+use crate::geometry::{colmap_rotation, Camera, CameraModel};
 
 use super::{
     ColmapCamera, ColmapError, ColmapImage, ColmapPoint3D, Location, Point2D, TrackElement,
@@ -182,6 +182,13 @@ pub fn read_images_text(r: impl BufRead) -> Result<Vec<ColmapImage>, ColmapError
         }
         let camera_id: u32 = line.get(8, "CAMERA_ID", "an unsigned 32-bit integer")?;
         let name: String = line.get(9, "NAME", "an image name")?;
+        colmap_rotation(qvec).map_err(|source| ColmapError::BadQuaternion {
+            file: PathBuf::from(FILE),
+            at: line.at(),
+            image_id,
+            name: name.clone(),
+            source,
+        })?;
         if line.fields.len() > 10 {
             return Err(ColmapError::Parse {
                 file: PathBuf::from(FILE),
