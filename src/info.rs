@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use crate::geometry::{quaternion_norm, CameraModel};
+use crate::geometry::{quaternion_norm, Camera, CameraModel};
 use crate::io::colmap::{
     find_model, read_model_bin, read_model_text, ColmapError, ColmapImage, ColmapModel, ModelFormat,
 };
@@ -77,6 +77,11 @@ pub enum InfoWarning {
         /// COLMAP `camera_id`.
         camera_id: u32,
     },
+    /// The model has no registered images: there is nothing to reconstruct.
+    NoImages,
+    /// The model has no 3D points: no plane can be found, and `run` would write empty depth
+    /// maps.
+    NoPoints,
     /// Images whose rotation quaternion is not unit length beyond
     /// [`QUATERNION_WARN_TOLERANCE`]; they are renormalised as COLMAP does (quaternions too
     /// far from unit length are read errors).
@@ -90,12 +95,45 @@ pub enum InfoWarning {
         /// Its quaternion's norm.
         worst_norm: f64,
     },
+    /// A camera that cannot be used for reconstruction (a scene cannot be built from it):
+    /// invalid parameters, or a principal point absurdly far from the image.
+    UnusableCamera {
+        /// COLMAP `camera_id`.
+        camera_id: u32,
+        /// Why.
+        message: String,
+    },
+    /// A camera whose principal point lies outside its image (usable, but unusual: the
+    /// optical axis misses the photograph).
+    PrincipalPointOutside {
+        /// COLMAP `camera_id`.
+        camera_id: u32,
+        /// Principal point.
+        principal_point: (f64, f64),
+        /// Image size.
+        size: (u32, u32),
+    },
+    /// A focal length outside COLMAP's plausible range
+    /// ([`MIN_FOCAL_LENGTH_RATIO`]–[`MAX_FOCAL_LENGTH_RATIO`] × the larger image side).
+    ImplausibleFocalLength {
+        /// COLMAP `camera_id`.
+        camera_id: u32,
+        /// The implausible focal length in pixels (fx, or fy when only fy is).
+        focal: f64,
+        /// Focal length / larger image side.
+        ratio: f64,
+    },
 }
 
 /// Rotation quaternions whose norm differs from 1 by more than this are reported by `info`
 /// ([`InfoWarning::QuaternionsRenormalised`]): full-precision writers (COLMAP, pycolmap,
 /// planemap) stay within ~1e-15, so anything beyond 1e-9 lost digits or was edited.
 pub const QUATERNION_WARN_TOLERANCE: f64 = 1e-9;
+/// COLMAP's `min_focal_length_ratio` (bundle adjustment treats a camera with a smaller
+/// focal length / image size ratio as bogus).
+pub const MIN_FOCAL_LENGTH_RATIO: f64 = 0.1;
+/// COLMAP's `max_focal_length_ratio`.
+pub const MAX_FOCAL_LENGTH_RATIO: f64 = 10.0;
 
 impl fmt::Display for InfoWarning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -132,6 +170,14 @@ impl fmt::Display for InfoWarning {
             InfoWarning::UnusedCamera { camera_id } => {
                 write!(f, "camera {camera_id} is used by no image")
             }
+            InfoWarning::NoImages => write!(
+                f,
+                "the model has no images: there is nothing to reconstruct"
+            ),
+            InfoWarning::NoPoints => write!(
+                f,
+                "the model has no 3D points: planes cannot be found and depth maps would be empty"
+            ),
             InfoWarning::QuaternionsRenormalised {
                 count,
                 worst_image_id,
@@ -142,6 +188,27 @@ impl fmt::Display for InfoWarning {
                 "{count} image(s) have a rotation quaternion that is not unit length (worst: \
                  image {worst_image_id} ({worst_name}), norm {worst_norm:?}); renormalised as \
                  COLMAP does"
+            ),
+            InfoWarning::UnusableCamera { camera_id, message } => write!(
+                f,
+                "camera {camera_id} cannot be used for reconstruction: {message}"
+            ),
+            InfoWarning::PrincipalPointOutside {
+                camera_id,
+                principal_point: (cx, cy),
+                size: (w, h),
+            } => write!(
+                f,
+                "camera {camera_id}: principal point ({cx:?}, {cy:?}) lies outside its {w}x{h} image"
+            ),
+            InfoWarning::ImplausibleFocalLength {
+                camera_id,
+                focal,
+                ratio,
+            } => write!(
+                f,
+                "camera {camera_id}: focal length {focal:?} px is {ratio:.3} times the larger \
+                 image side (COLMAP finds outside {MIN_FOCAL_LENGTH_RATIO}–{MAX_FOCAL_LENGTH_RATIO} implausible)"
             ),
         }
     }
@@ -199,6 +266,38 @@ pub fn image_size(path: &Path) -> Result<(u32, u32), String> {
     })
 }
 
+/// The camera warnings of one camera: unusable, principal point outside, focal ratio.
+fn camera_warnings(camera_id: u32, camera: &Camera, warnings: &mut Vec<InfoWarning>) {
+    if let Err(e) = camera.check_usable() {
+        warnings.push(InfoWarning::UnusableCamera {
+            camera_id,
+            message: e.to_string(),
+        });
+        return;
+    }
+    let (w, h) = (f64::from(camera.width), f64::from(camera.height));
+    let (cx, cy) = (camera.cx(), camera.cy());
+    if !(0.0..=w).contains(&cx) || !(0.0..=h).contains(&cy) {
+        warnings.push(InfoWarning::PrincipalPointOutside {
+            camera_id,
+            principal_point: (cx, cy),
+            size: (camera.width, camera.height),
+        });
+    }
+    let side = w.max(h);
+    for focal in [camera.fx(), camera.fy()] {
+        let ratio = focal / side;
+        if !(MIN_FOCAL_LENGTH_RATIO..=MAX_FOCAL_LENGTH_RATIO).contains(&ratio) {
+            warnings.push(InfoWarning::ImplausibleFocalLength {
+                camera_id,
+                focal,
+                ratio,
+            });
+            break;
+        }
+    }
+}
+
 /// The `p`-th percentile (0..=100) of sorted values, nearest rank.
 fn percentile(sorted: &[f64], p: f64) -> f64 {
     let idx = ((p / 100.0) * (sorted.len() - 1) as f64).round() as usize;
@@ -225,6 +324,15 @@ impl ModelInfo {
         images_dir: Option<&Path>,
     ) -> ModelInfo {
         let mut warnings = Vec::new();
+        if model.images.is_empty() {
+            warnings.push(InfoWarning::NoImages);
+        }
+        if model.points3d.is_empty() {
+            warnings.push(InfoWarning::NoPoints);
+        }
+        for c in &model.cameras {
+            camera_warnings(c.camera_id, &c.camera, &mut warnings);
+        }
         let off_unit: Vec<(&ColmapImage, f64)> = model
             .images
             .iter()
@@ -545,6 +653,65 @@ mod tests {
         let junk = dir.path().join("b.png");
         std::fs::write(&junk, b"not an image").unwrap();
         assert!(image_size(&junk).is_err());
+    }
+
+    #[test]
+    fn empty_model_is_warned_about() {
+        let empty = ColmapModel::default();
+        let info = ModelInfo::from_model(&empty, PathBuf::from("m"), ModelFormat::Text, None);
+        assert_eq!(
+            info.warnings,
+            vec![InfoWarning::NoImages, InfoWarning::NoPoints]
+        );
+        let text = info.to_string();
+        assert!(!text.contains("warnings: none"), "{text}");
+        assert!(text.contains("no 3D points"), "{text}");
+        // Images but no points.
+        let mut m = model();
+        m.points3d.clear();
+        let info = ModelInfo::from_model(&m, PathBuf::from("m"), ModelFormat::Text, None);
+        assert!(info.warnings.contains(&InfoWarning::NoPoints));
+        assert!(!info.warnings.contains(&InfoWarning::NoImages));
+    }
+
+    #[test]
+    fn absurd_intrinsics_are_warned_about() {
+        let mut m = model();
+        // Camera 1 (8x6, used): principal point 1e300; camera 2 (4x4): focal ≤ 0.
+        m.cameras[0].camera.params[2] = 1e300;
+        m.cameras[1].camera.params[0] = -5.0;
+        let info = ModelInfo::from_model(&m, PathBuf::from("m"), ModelFormat::Text, None);
+        let text = info.to_string();
+        assert!(
+            text.contains(
+                "camera 1 cannot be used for reconstruction: principal point (1e300, 3.0)"
+            ),
+            "{text}"
+        );
+        assert!(
+            text.contains(
+                "camera 2 cannot be used for reconstruction: camera parameter 0 (fx) is -5.0"
+            ),
+            "{text}"
+        );
+        // Outside the image but not absurd, and a focal 100x the image side.
+        let mut m = model();
+        m.cameras[0].camera.params[2] = -3.0;
+        m.cameras[1].camera.params[0] = 400.0;
+        m.cameras[1].camera.params[1] = 400.0;
+        let info = ModelInfo::from_model(&m, PathBuf::from("m"), ModelFormat::Text, None);
+        assert!(info.warnings.contains(&InfoWarning::PrincipalPointOutside {
+            camera_id: 1,
+            principal_point: (-3.0, 3.0),
+            size: (8, 6)
+        }));
+        assert!(info
+            .warnings
+            .contains(&InfoWarning::ImplausibleFocalLength {
+                camera_id: 2,
+                focal: 400.0,
+                ratio: 100.0
+            }));
     }
 
     #[test]

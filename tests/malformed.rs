@@ -252,3 +252,98 @@ fn jpeg_named_png_is_read_by_its_content() {
     success(&run_view0(&dir, &out_dir));
     assert!(out_dir.join("planes.json").is_file());
 }
+
+// --- 11. reader details ------------------------------------------------------------------
+
+#[test]
+fn unknown_binary_model_id_is_named_once() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("demo");
+    synth_tiny_demo(&dir);
+    let cameras = dir.join("sparse").join("cameras.bin");
+    let mut b = std::fs::read(&cameras).unwrap();
+    // num_cameras (8 bytes), camera_id (4), then model_id.
+    b[12..16].copy_from_slice(&99i32.to_le_bytes());
+    std::fs::write(&cameras, b).unwrap();
+    let err = clean_failure(
+        &planemap()
+            .arg("info")
+            .arg(dir.join("sparse"))
+            .output()
+            .unwrap(),
+    );
+    assert!(
+        err.contains("cameras.bin: byte offset 8: unknown camera model id 99 (expected 0–4: 0 SIMPLE_PINHOLE, 1 PINHOLE"),
+        "{err}"
+    );
+    assert!(!err.contains("model model"), "{err}");
+}
+
+#[test]
+fn text_model_with_a_byte_order_mark_is_read() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("demo");
+    let sparse = text_demo(&dir);
+    for stem in ["cameras", "images", "points3D"] {
+        edit(&sparse.join(format!("{stem}.txt")), |s| {
+            format!("\u{FEFF}{s}")
+        });
+    }
+    let stdout = success(&info(&sparse, &dir.join("images")));
+    assert!(stdout.contains("warnings: none"), "{stdout}");
+}
+
+#[test]
+fn empty_model_is_warned_about() {
+    let tmp = tempfile::tempdir().unwrap();
+    for stem in ["cameras", "images", "points3D"] {
+        std::fs::write(tmp.path().join(format!("{stem}.txt")), "# empty\n").unwrap();
+    }
+    let out = planemap().arg("info").arg(tmp.path()).output().unwrap();
+    let stdout = success(&out);
+    assert!(!stdout.contains("warnings: none"), "{stdout}");
+    assert!(
+        stdout.contains("the model has no images") && stdout.contains("the model has no 3D points"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn absurd_principal_point_is_warned_about_and_refused_by_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("demo");
+    let sparse = text_demo(&dir);
+    edit_first_record(&sparse.join("cameras.txt"), |f| {
+        // CAMERA_ID MODEL WIDTH HEIGHT then f cx cy (SIMPLE_*) or fx fy cx cy.
+        let cx = if f[1].starts_with("SIMPLE") || f[1] == "RADIAL" {
+            5
+        } else {
+            6
+        };
+        f[cx] = "1e300".into();
+    });
+    let stdout = success(&info(&sparse, &dir.join("images")));
+    assert!(
+        stdout.contains("camera 1 cannot be used for reconstruction: principal point (1e300,"),
+        "{stdout}"
+    );
+    let err = clean_failure(&run_view0(&dir, &tmp.path().join("out")));
+    assert!(
+        err.contains("camera 1 (used by image 1, view_0000.png): principal point (1e300,"),
+        "{err}"
+    );
+}
+
+#[test]
+fn non_positive_focal_length_is_refused_by_name() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("demo");
+    let sparse = text_demo(&dir);
+    edit_first_record(&sparse.join("cameras.txt"), |f| f[4] = "-250".into());
+    let err = clean_failure(&info(&sparse, &dir.join("images")));
+    assert!(
+        err.contains("cameras.txt: line 4: camera 1: camera parameter 0")
+            && err.contains("is -250.0, expected a positive, finite focal length"),
+        "{err}"
+    );
+}

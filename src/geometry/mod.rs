@@ -6,7 +6,7 @@
 mod camera;
 mod plane;
 
-pub use camera::{Camera, CameraError, CameraModel};
+pub use camera::{Camera, CameraError, CameraModel, MAX_PRINCIPAL_POINT_OUTSIDE};
 pub use plane::Plane;
 
 use nalgebra::{Isometry3, Matrix3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};

@@ -438,6 +438,9 @@ pub fn camera_from_projection(
         vec![fx, fy, cx, cy],
     )
     .map_err(|e| camera_err(format!("invalid camera from projection matrix: {e}")))?;
+    camera
+        .check_usable()
+        .map_err(|e| camera_err(format!("unusable camera from projection matrix: {e}")))?;
     let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rot));
     let cam_from_world = Rigid3::from_parts(Translation3::from(t), rotation);
     Ok((camera, cam_from_world))
@@ -788,6 +791,17 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("singular"), "{err}");
+    }
+
+    #[test]
+    fn absurd_principal_point_is_rejected() {
+        // A principal point 12 image widths away: the scene loader refuses the camera.
+        let camera = Camera::pinhole(640, 480, 500.0, 500.0, 8000.0, 240.0);
+        let p = projection_from_camera(&camera, &Rigid3::identity()).unwrap();
+        let err = camera_from_projection(&p, 640, 480)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("principal point"), "{err}");
     }
 
     #[test]

@@ -176,7 +176,8 @@ pub fn read_cameras_bin(r: impl Read) -> Result<Vec<ColmapCamera>, ColmapError> 
             CameraModel::from_colmap_id(model_id).map_err(|_| ColmapError::UnknownModel {
                 file: PathBuf::from(FILE),
                 at,
-                model: format!("model id {model_id}"),
+                model: format!("id {model_id}"),
+                expected: CameraModel::id_list(),
             })?;
         let width = c.u64("width")?;
         let width = size_u32(&c, width, "width")?;

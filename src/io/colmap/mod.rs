@@ -115,14 +115,16 @@ pub enum ColmapError {
         got: String,
     },
     /// A camera model planemap does not support (name or numeric id).
-    #[error("{}: {at}: unknown camera model {model} (supported: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV)", file.display())]
+    #[error("{}: {at}: unknown camera model {model} (expected {expected})", file.display())]
     UnknownModel {
         /// The file.
         file: PathBuf,
         /// Where the camera record is.
         at: Location,
-        /// The model name or `model id N`.
+        /// The model name, or `id N` for a numeric id.
         model: String,
+        /// The supported names or ids.
+        expected: String,
     },
     /// A camera line has the wrong number of parameters for its model.
     #[error("{}: {at}: camera model {model} takes {expected} parameters, got {got}", file.display())]
@@ -165,6 +167,18 @@ pub enum ColmapError {
         name: String,
         /// The quaternion and its norm.
         source: PoseError,
+    },
+    /// A camera reads fine but cannot be reconstructed with (see [`Camera::check_usable`]).
+    #[error("camera {camera_id} (used by image {image_id}, {name}): {source}")]
+    UnusableCamera {
+        /// The camera's id.
+        camera_id: u32,
+        /// The first image using it.
+        image_id: u32,
+        /// That image's name.
+        name: String,
+        /// Why.
+        source: CameraError,
     },
     /// A NaN or infinite value in a pose, point or parameter.
     #[error("{}: {at}: {what} is {value}, expected a finite number", file.display())]
@@ -220,7 +234,10 @@ impl ColmapError {
             | ColmapError::BadQuaternion { file, .. }
             | ColmapError::Invalid { file, .. }
             | ColmapError::Inconsistent { file, .. } => *file = path.to_path_buf(),
-            ColmapError::NoModel { .. } | ColmapError::Unwritable(_) | ColmapError::Scene(_) => {}
+            ColmapError::NoModel { .. }
+            | ColmapError::Unwritable(_)
+            | ColmapError::Scene(_)
+            | ColmapError::UnusableCamera { .. } => {}
         }
         self
     }
@@ -451,8 +468,8 @@ impl ColmapModel {
 
     /// Converts to a [`Scene`]: views sorted by `image_id` (so the result does not depend on
     /// file order), cameras copied as they are (still distorted; see
-    /// [`Scene::undistorted`]), rotations renormalised (see [`colmap_rotation`]),
-    /// `image_path = images_dir/name` when `images_dir` is given.
+    /// [`Scene::undistorted`]) after [`Camera::check_usable`], rotations renormalised (see
+    /// [`colmap_rotation`]), `image_path = images_dir/name` when `images_dir` is given.
     /// Point tracks become sorted, deduplicated view indices; `errors` are COLMAP's
     /// reprojection errors (0 where COLMAP wrote a negative "unknown"); normals are `None`;
     /// confidence is [`point_confidence`].
@@ -470,6 +487,14 @@ impl ColmapModel {
         for (idx, im) in order.iter().enumerate() {
             view_of_image.insert(im.image_id, idx as u32);
             let camera = cams[&im.camera_id];
+            camera
+                .check_usable()
+                .map_err(|source| ColmapError::UnusableCamera {
+                    camera_id: im.camera_id,
+                    image_id: im.image_id,
+                    name: im.name.clone(),
+                    source,
+                })?;
             // `validate` checked the quaternion already; keep the error path anyway.
             let cam_from_world =
                 rigid_from_colmap(im.qvec, im.tvec).map_err(|e| ColmapError::Inconsistent {

@@ -259,9 +259,32 @@ fn unknown_model_and_param_count_are_reported() {
     b[0][12..16].copy_from_slice(&99i32.to_le_bytes());
     let e = read_cameras_bin(&b[0][..]).unwrap_err().to_string();
     assert!(
-        e.contains("byte offset 8") && e.contains("model id 99"),
+        e.contains("byte offset 8")
+            && e.contains("unknown camera model id 99 (expected 0–4: 0 SIMPLE_PINHOLE")
+            && !e.contains("model model"),
         "{e}"
     );
+}
+
+#[test]
+fn utf8_byte_order_mark_is_accepted() {
+    let m = sample();
+    let t = text_bytes(&m);
+    let with_bom = |b: &[u8]| [b"\xEF\xBB\xBF".as_slice(), b].concat();
+    let cams = read_cameras_text(&with_bom(&t[0])[..]).unwrap();
+    assert_eq!(cams, m.cameras);
+    let images = read_images_text(&with_bom(&t[1])[..]).unwrap();
+    assert_eq!(images, m.images);
+    let points = read_points3d_text(&with_bom(&t[2])[..]).unwrap();
+    assert_eq!(points, m.points3d);
+    // Without a comment header the BOM sits right before the first record.
+    let cams = read_cameras_text(&b"\xEF\xBB\xBF1 PINHOLE 10 10 5 5 5 5\n"[..]).unwrap();
+    assert_eq!(cams[0].camera_id, 1);
+    // A BOM elsewhere is still not a number.
+    assert!(read_cameras_text(
+        &b"1 PINHOLE 10 10 5 5 5 5\n\xEF\xBB\xBF2 PINHOLE 1 1 1 1 1 1\n"[..]
+    )
+    .is_err());
 }
 
 #[test]
@@ -333,6 +356,22 @@ fn near_unit_quaternions_are_renormalised_far_ones_rejected() {
         );
         assert!(m.to_scene(None).is_err());
     }
+}
+
+#[test]
+fn to_scene_rejects_an_absurd_principal_point_by_camera() {
+    let mut m = sample();
+    m.cameras[1].camera.params[1] = 1e300;
+    // The reader accepts the record (info shows and warns about it) ...
+    let t = text_bytes(&m);
+    let read = from_text(&t).unwrap();
+    // ... but building a scene refuses it, naming the camera and the image using it.
+    let e = read.to_scene(None).unwrap_err().to_string();
+    assert!(
+        e.contains("camera 2 (used by image 1, a.png)")
+            && e.contains("principal point (1e300, 40.0)"),
+        "{e}"
+    );
 }
 
 #[test]
