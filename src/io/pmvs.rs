@@ -260,6 +260,15 @@ pub fn read_patches<R: Read>(r: R) -> Result<Vec<Patch>, PmvsError> {
             ));
         }
         let position = Vector3::new(p[0] / p[3], p[1] / p[3], p[2] / p[3]);
+        if !position.iter().all(|v| v.is_finite()) {
+            return Err(format_err(
+                pos_line,
+                format!(
+                    "expected a finite position, found ({:?}, {:?}, {:?}) / w = {:?} (overflows)",
+                    p[0], p[1], p[2], p[3]
+                ),
+            ));
+        }
         let mut n4 = [0f64; 4];
         let mut nrm_line = pos_line;
         for v in n4.iter_mut() {
@@ -272,7 +281,10 @@ pub fn read_patches<R: Read>(r: R) -> Result<Vec<Patch>, PmvsError> {
         if !(norm > 0.0 && norm.is_finite()) {
             return Err(format_err(
                 nrm_line,
-                "expected a non-zero normal, found (0, 0, 0)",
+                format!(
+                    "expected a non-zero normal of finite length, found ({:?}, {:?}, {:?})",
+                    n4[0], n4[1], n4[2]
+                ),
             ));
         }
         let (_, score) = t.float("the patch score")?;
@@ -834,6 +846,23 @@ mod tests {
             .to_string();
         assert!(
             err.contains("line 4") && err.contains("ends early"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn overflowing_patch_values_are_rejected() {
+        // x / w overflows to infinity: a named error, not a non-finite point in the scene.
+        let text = "PATCHES\n1\nPATCHS\n1e300 2 3 1e-300\n0 0 1 0\n0.9 0 0\n0\n\n0\n\n";
+        let err = read_patches(text.as_bytes()).unwrap_err().to_string();
+        assert!(
+            err.contains("line 4") && err.contains("finite position"),
+            "{err}"
+        );
+        let text = "PATCHES\n1\nPATCHS\n1 2 3 1\n1e300 1e300 0 0\n0.9 0 0\n0\n\n0\n\n";
+        let err = read_patches(text.as_bytes()).unwrap_err().to_string();
+        assert!(
+            err.contains("line 5") && err.contains("finite length"),
             "{err}"
         );
     }
