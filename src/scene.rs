@@ -8,12 +8,12 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-use image::ImageReader;
+use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader};
 use nalgebra::{Point3, Vector2, Vector3};
 use thiserror::Error;
 
 use crate::geometry::{camera_center, Camera, Rigid3};
-use crate::raster::ImageF32;
+use crate::raster::{png_can_hold, ImageF32};
 
 /// Errors of scene assembly and image loading.
 #[derive(Debug, Error)]
@@ -106,15 +106,33 @@ impl View {
             });
         }
         let mut reader = image_reader(path)?;
+        let is_png = reader.format() == Some(ImageFormat::Png);
         // The header was checked; hold the decoder to it should the file change meanwhile.
         let mut limits = image::Limits::default();
         limits.max_image_width = Some(w);
         limits.max_image_height = Some(h);
         reader.limits(limits);
-        let img = reader.decode().map_err(|e| SceneError::Image {
+        let image_err = |e: image::ImageError| SceneError::Image {
             path: path.clone(),
             message: e.to_string(),
-        })?;
+        };
+        let decoder = reader.into_decoder().map_err(image_err)?;
+        if is_png {
+            // A PNG smaller than its pixels could compress to is truncated or forged: refuse
+            // it before the decoder allocates the declared size.
+            let bits = decoder.original_color_type().bits_per_pixel();
+            let file_len = std::fs::metadata(path).map_or(u64::MAX, |m| m.len());
+            if !png_can_hold(w, h, bits, file_len) {
+                return Err(SceneError::Image {
+                    path: path.clone(),
+                    message: format!(
+                        "PNG header declares {w}x{h} pixels of {bits} bits, more than its \
+                         {file_len} bytes can inflate to: truncated or corrupt"
+                    ),
+                });
+            }
+        }
+        let img = DynamicImage::from_decoder(decoder).map_err(image_err)?;
         Ok(ImageF32::from_rgb8(&img.to_rgb8()))
     }
 
@@ -403,6 +421,24 @@ mod tests {
             "{err}"
         );
         assert!(err.to_string().contains("huge.png"), "{err}");
+    }
+
+    #[test]
+    fn a_png_smaller_than_its_pixels_is_refused_before_decoding() {
+        // Header and camera agree on 20000x12000 RGB (720 MB), but 72 bytes cannot hold it.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("forged.png");
+        std::fs::write(&path, png_header_only(20_000, 12_000)).unwrap();
+        let err = view_of(&path, 20_000, 12_000)
+            .load_image()
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("forged.png")
+                && err.contains("declares 20000x12000 pixels of 24 bits")
+                && err.contains("truncated or corrupt"),
+            "{err}"
+        );
     }
 
     #[test]
