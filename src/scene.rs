@@ -86,54 +86,15 @@ impl View {
         )
     }
 
-    /// Loads the image as RGB in `[0, 1]`. Its size, read from the header, is checked
-    /// against the camera before any pixel is decoded, so that a small file declaring a huge
-    /// image costs nothing; the format is detected from the content (a JPEG named `.png`
-    /// loads).
+    /// Loads the image as RGB in `[0, 1]` with [`load_image_file`], checking its size against
+    /// the camera before any pixel is decoded (a small file declaring a huge image costs
+    /// nothing) and detecting the format from the content (a JPEG named `.png` loads).
     pub fn load_image(&self) -> Result<ImageF32, SceneError> {
         let path = self
             .image_path
             .as_ref()
             .ok_or_else(|| SceneError::NoImage(self.name.clone()))?;
-        let (w, h) = image_file_size(path)?;
-        if (w, h) != (self.camera.width, self.camera.height) {
-            return Err(SceneError::ImageSize {
-                path: path.clone(),
-                got_w: w,
-                got_h: h,
-                want_w: self.camera.width,
-                want_h: self.camera.height,
-            });
-        }
-        let mut reader = image_reader(path)?;
-        let is_png = reader.format() == Some(ImageFormat::Png);
-        // The header was checked; hold the decoder to it should the file change meanwhile.
-        let mut limits = image::Limits::default();
-        limits.max_image_width = Some(w);
-        limits.max_image_height = Some(h);
-        reader.limits(limits);
-        let image_err = |e: image::ImageError| SceneError::Image {
-            path: path.clone(),
-            message: e.to_string(),
-        };
-        let decoder = reader.into_decoder().map_err(image_err)?;
-        if is_png {
-            // A PNG smaller than its pixels could compress to is truncated or forged: refuse
-            // it before the decoder allocates the declared size.
-            let bits = decoder.original_color_type().bits_per_pixel();
-            let file_len = std::fs::metadata(path).map_or(u64::MAX, |m| m.len());
-            if !png_can_hold(w, h, bits, file_len) {
-                return Err(SceneError::Image {
-                    path: path.clone(),
-                    message: format!(
-                        "PNG header declares {w}x{h} pixels of {bits} bits, more than its \
-                         {file_len} bytes can inflate to: truncated or corrupt"
-                    ),
-                });
-            }
-        }
-        let img = DynamicImage::from_decoder(decoder).map_err(image_err)?;
-        Ok(ImageF32::from_rgb8(&img.to_rgb8()))
+        load_image_file(path, Some((self.camera.width, self.camera.height)))
     }
 
     /// Loads the image and, for a distorted camera, resamples it to [`Camera::undistorted`].
@@ -169,6 +130,54 @@ pub fn image_file_size(path: &Path) -> Result<(u32, u32), SceneError> {
             path: path.to_path_buf(),
             message: e.to_string(),
         })
+}
+
+/// Loads an image file as RGB in `[0, 1]`. The format is detected from the content; the size
+/// is read from the header first and, when `expected` is given, must equal it before any
+/// pixel is decoded; a PNG whose bytes cannot hold the pixels its header declares is refused
+/// before the decoder allocates them.
+pub fn load_image_file(path: &Path, expected: Option<(u32, u32)>) -> Result<ImageF32, SceneError> {
+    let (w, h) = image_file_size(path)?;
+    if let Some((want_w, want_h)) = expected {
+        if (w, h) != (want_w, want_h) {
+            return Err(SceneError::ImageSize {
+                path: path.to_path_buf(),
+                got_w: w,
+                got_h: h,
+                want_w,
+                want_h,
+            });
+        }
+    }
+    let mut reader = image_reader(path)?;
+    let is_png = reader.format() == Some(ImageFormat::Png);
+    // The header was checked; hold the decoder to it should the file change meanwhile.
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(w);
+    limits.max_image_height = Some(h);
+    reader.limits(limits);
+    let image_err = |e: image::ImageError| SceneError::Image {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let decoder = reader.into_decoder().map_err(image_err)?;
+    if is_png {
+        // A PNG smaller than its pixels could compress to is truncated or forged: refuse it
+        // before the decoder allocates the declared size.
+        let bits = decoder.original_color_type().bits_per_pixel();
+        let file_len = std::fs::metadata(path).map_or(u64::MAX, |m| m.len());
+        if !png_can_hold(w, h, bits, file_len) {
+            return Err(SceneError::Image {
+                path: path.to_path_buf(),
+                message: format!(
+                    "PNG header declares {w}x{h} pixels of {bits} bits, more than its \
+                     {file_len} bytes can inflate to: truncated or corrupt"
+                ),
+            });
+        }
+    }
+    let img = DynamicImage::from_decoder(decoder).map_err(image_err)?;
+    Ok(ImageF32::from_rgb8(&img.to_rgb8()))
 }
 
 /// Sparse 3D points (structure-from-motion or PMVS patches), as parallel arrays.
@@ -454,6 +463,7 @@ mod tests {
         assert_eq!(image_file_size(&path).unwrap(), (16, 12));
         let loaded = view_of(&path, 16, 12).load_image().unwrap();
         assert_eq!((loaded.width, loaded.height), (16, 12));
+        assert_eq!(load_image_file(&path, None).unwrap(), loaded);
         // JPEG is lossy: near, not equal.
         assert!((loaded.get(8, 6, 2) - 90.0 / 255.0).abs() < 0.05);
     }
