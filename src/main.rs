@@ -331,10 +331,25 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_chain(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes as one line, `outer: cause: root`, leaving out a cause whose
+/// text the line already holds (our errors often print their source inside their own
+/// message, and `{:#}` would then repeat it).
+fn error_chain(e: &anyhow::Error) -> String {
+    let mut line = e.to_string();
+    for cause in e.chain().skip(1) {
+        let text = cause.to_string();
+        if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    line
 }
 
 fn init_logging(quiet: bool, verbose: u8) {
@@ -346,9 +361,11 @@ fn init_logging(quiet: bool, verbose: u8) {
     };
     let filter = tracing_subscriber::EnvFilter::try_from_env("PLANEMAP_LOG")
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    // Colour codes only on a terminal: logs redirected to a file stay plain text.
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .try_init();
 }
 
@@ -399,7 +416,11 @@ fn run(a: RunArgs, progress: &Progress) -> Result<()> {
         (scene, a.gt.clone().or_else(|| sibling_gt(model_dir)))
     };
     let opts = RunOptions {
-        views: a.views.as_deref().map(|v| view_indices(&scene, v)).transpose()?,
+        views: a
+            .views
+            .as_deref()
+            .map(|v| view_indices(&scene, v))
+            .transpose()?,
         resume: a.resume,
     };
     reconstruct(&scene, &config, &a.output, &opts, gt.as_deref(), progress)
@@ -422,7 +443,7 @@ fn reconstruct(
     let (prepared, views, summary) = pipeline::run(scene, config, out, opts, progress)
         .with_context(|| format!("reconstructing into {}", out.display()))?;
     println!(
-        "R = {:.4}; {} dominant directions (angles: {}); {} plane hypotheses",
+        "R = {:.4}; {} dominant directions (angles: {}); {} plane hypotheses ({} of them crease hypotheses)",
         summary.scale,
         summary.directions.len(),
         summary
@@ -431,7 +452,8 @@ fn reconstruct(
             .map(|(i, j, a)| format!("d{}-d{} {:.1}°", i + 1, j + 1, a))
             .collect::<Vec<_>>()
             .join(", "),
-        summary.hypotheses
+        summary.hypotheses,
+        summary.crease_hypotheses
     );
     let [t_n, t_a, t_h, t_v, t_f] = summary.stage_seconds;
     println!(
@@ -692,10 +714,9 @@ fn classify(c: ClassifyCommand, progress: &Progress) -> Result<()> {
                     .collect();
                 files.sort();
                 for f in &files {
-                    let rgb = image::open(f)
-                        .with_context(|| format!("reading {}", f.display()))?
-                        .to_rgb8();
-                    let map = model.planarity_map(&planemap::ImageF32::from_rgb8(&rgb), None)?;
+                    // Format from the content, size checked before decoding.
+                    let image = planemap::scene::load_image_file(f, None)?;
+                    let map = model.planarity_map(&image, None)?;
                     let name = f.file_name().unwrap_or_default().to_string_lossy();
                     map.write_png(&output_file(&a.output, &name, ".png")?)?;
                     written += 1;
@@ -820,7 +841,9 @@ fn view_indices(scene: &planemap::Scene, views: &[String]) -> Result<Vec<usize>>
         let v = v.trim();
         let i = match v.parse::<usize>() {
             Ok(i) if i < n => i,
-            Ok(i) => anyhow::bail!("--views: view index {i} out of range (the model has {n} views, 0..{n})"),
+            Ok(i) => anyhow::bail!(
+                "--views: view index {i} out of range (the model has {n} views, 0..{n})"
+            ),
             Err(_) => scene
                 .views
                 .iter()

@@ -6,40 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 
 mod common;
-use common::{planemap, synth_tiny_demo};
-
-fn text(out: &Output) -> (String, String) {
-    (
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-/// A failure the program reported itself: an exit code (not a signal such as SIGABRT), no
-/// panic. Returns stderr.
-fn clean_failure(out: &Output) -> String {
-    let (stdout, stderr) = text(out);
-    assert!(
-        !out.status.success(),
-        "expected a failure\nstdout: {stdout}\nstderr: {stderr}"
-    );
-    assert!(
-        out.status.code().is_some(),
-        "killed by a signal ({:?}), not an error\nstderr: {stderr}",
-        out.status
-    );
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    stderr
-}
-
-fn success(out: &Output) -> String {
-    let (stdout, stderr) = text(out);
-    assert!(
-        out.status.success(),
-        "expected success\nstdout: {stdout}\nstderr: {stderr}"
-    );
-    stdout
-}
+use common::{clean_failure, planemap, success, synth_tiny_demo};
 
 /// The tiny demo with only the text model in `sparse/` (so edits to it are what is read).
 fn text_demo(dir: &Path) -> PathBuf {

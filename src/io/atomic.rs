@@ -62,7 +62,11 @@ mod tests {
         fs::write(&path, b"old contents")?;
         write_atomic(&path, |w: &mut BufWriter<File>| w.write_all(b"new"))?;
         assert_eq!(fs::read(&path)?, b"new");
-        assert_eq!(fs::read_dir(dir.path())?.count(), 1, "no temporary file left");
+        assert_eq!(
+            fs::read_dir(dir.path())?.count(),
+            1,
+            "no temporary file left"
+        );
         Ok(())
     }
 
@@ -77,7 +81,11 @@ mod tests {
         });
         assert_eq!(result.unwrap_err().to_string(), "writer failed");
         assert_eq!(fs::read(&path)?, b"keep me");
-        assert_eq!(fs::read_dir(dir.path())?.count(), 1, "no temporary file left");
+        assert_eq!(
+            fs::read_dir(dir.path())?.count(),
+            1,
+            "no temporary file left"
+        );
         Ok(())
     }
 
@@ -90,7 +98,11 @@ mod tests {
             name.starts_with(&format!("depth.pfm.tmp-{}-", std::process::id())),
             "{name}"
         );
-        assert_ne!(temp_path(Path::new("/a/b/depth.pfm")), tmp, "unique per write");
+        assert_ne!(
+            temp_path(Path::new("/a/b/depth.pfm")),
+            tmp,
+            "unique per write"
+        );
     }
 
     #[test]
@@ -118,8 +130,15 @@ mod tests {
         })?;
         let bytes = fs::read(&path)?;
         assert_eq!(bytes.len(), 4096);
-        assert!(bytes.iter().all(|&b| b == bytes[0]), "one writer's content, whole");
-        assert_eq!(fs::read_dir(dir.path())?.count(), 1, "no temporary file left");
+        assert!(
+            bytes.iter().all(|&b| b == bytes[0]),
+            "one writer's content, whole"
+        );
+        assert_eq!(
+            fs::read_dir(dir.path())?.count(),
+            1,
+            "no temporary file left"
+        );
         Ok(())
     }
 }

@@ -122,7 +122,7 @@ impl Config {
         let scale = self.solver.cost_scale;
         if !(scale.is_finite() && scale > 0.0 && scale <= MAX_COST_SCALE) {
             return Err(PipelineError::Config(format!(
-                "solver.cost_scale = {scale} must be in (0, {MAX_COST_SCALE}] (integer cost \
+                "solver.cost_scale = {scale:e} must be in (0, {MAX_COST_SCALE}] (integer cost \
                  units per unit of cost; larger ones overflow the solver's 32-bit capacities)"
             )));
         }

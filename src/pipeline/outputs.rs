@@ -129,7 +129,12 @@ pub fn write_view_outputs(
     ensure_parent(&dense_normals)?;
     write_dense_map_path(&dense_normals, &normals)?;
     // The label map last: its presence marks the view complete for --resume.
-    write_label_png(&view_file(out, "planemaps", &view.name, ".png")?, w, h, &ids)?;
+    write_label_png(
+        &view_file(out, "planemaps", &view.name, ".png")?,
+        w,
+        h,
+        &ids,
+    )?;
     Ok(())
 }
 
