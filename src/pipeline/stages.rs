@@ -116,12 +116,21 @@ pub fn sparse_stages(scene: &Scene, cfg: &Config) -> Result<SparseStages, Pipeli
     let t_normals = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut axes = dominant_axes(&oriented, &cfg.axes)?;
+    // The cameras' vertical, when they were held upright (or walked with a known wall).
+    let m = axes.num_manhattan.min(axes.directions.len());
+    let camera_up = crate::axes::camera_vertical(&scene.views)
+        .or_else(|| crate::axes::camera_vertical_given(&scene.views, &axes.directions[..m]));
     if cfg.axes.camera_vertical {
-        let m = axes.num_manhattan.min(axes.directions.len());
         if let Some(up) = crate::axes::camera_vertical_given(&scene.views, &axes.directions[..m]) {
             axes.complete_with_vertical(&up, &oriented.normals, cfg.axes.refine_angle_deg);
         }
     }
+    let level = |axes: &mut DominantAxes| {
+        if let (true, Some(up)) = (cfg.axes.level_to_camera_vertical, camera_up) {
+            axes.level_to(&up, cfg.axes.level_max_deg);
+        }
+    };
+    level(&mut axes);
     let t_axes = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut hypotheses =
@@ -147,6 +156,7 @@ pub fn sparse_stages(scene: &Scene, cfg: &Config) -> Result<SparseStages, Pipeli
             scale,
             &cfg.axes.refine,
         );
+        level(&mut axes);
         hypotheses = plane_hypotheses(&hyp_input(scene, &oriented, &axes, scale), &cfg.hypotheses)?;
     }
     Ok(SparseStages {
