@@ -354,6 +354,22 @@ pub enum ObjectSpec {
         #[serde(default = "default_true")]
         caps: bool,
     },
+    /// A flat convex polygon (a gable end, a roof face, a floor of any outline), visible
+    /// from the side where its vertices run counter-clockwise.
+    Polygon {
+        /// Label of its plane.
+        #[serde(default)]
+        name: Option<String>,
+        /// Material.
+        material: String,
+        /// At least 3 coplanar vertices of a convex polygon, counter-clockwise seen from the
+        /// visible side. Texture coordinates are metres along the plane's horizontal and its
+        /// upward (for a horizontal polygon, world y) directions.
+        vertices: Vec<[f64; 3]>,
+        /// Visible from both sides.
+        #[serde(default)]
+        two_sided: bool,
+    },
 }
 
 fn default_axis() -> [f64; 3] {
@@ -370,7 +386,8 @@ impl ObjectSpec {
             ObjectSpec::Box { name, .. }
             | ObjectSpec::Quad { name, .. }
             | ObjectSpec::Sphere { name, .. }
-            | ObjectSpec::Cylinder { name, .. } => name.as_deref(),
+            | ObjectSpec::Cylinder { name, .. }
+            | ObjectSpec::Polygon { name, .. } => name.as_deref(),
         }
     }
 
@@ -381,6 +398,7 @@ impl ObjectSpec {
             ObjectSpec::Quad { .. } => "quad",
             ObjectSpec::Sphere { .. } => "sphere",
             ObjectSpec::Cylinder { .. } => "cylinder",
+            ObjectSpec::Polygon { .. } => "polygon",
         }
     }
 }
@@ -873,6 +891,21 @@ impl SceneSpec {
                         ));
                     }
                 }
+                ObjectSpec::Polygon {
+                    material, vertices, ..
+                } => {
+                    check_material(material)?;
+                    if vertices.len() < 3 || !vertices.iter().all(|v| finite(v)) {
+                        return Err(fail(
+                            place,
+                            format!(
+                                "vertices must be at least 3 finite points, got {}",
+                                vertices.len()
+                            ),
+                        ));
+                    }
+                    polygon_normal(vertices).map_err(|m| fail(place, m))?;
+                }
             }
         }
 
@@ -1014,6 +1047,47 @@ impl SceneSpec {
         }
         Ok(())
     }
+}
+
+/// How far (metres) a polygon's vertex may be off the polygon's plane: vertices written to
+/// 0.1 mm are off by less; the renderer snaps them onto the plane (as it snaps faces onto
+/// merged planes, which are 2 mm apart at most).
+pub(crate) const POLYGON_FLATNESS: f64 = 1e-3;
+
+/// Unit normal of the visible side of a polygon (Newell's method: the vertices run
+/// counter-clockwise around it), or why the vertices are not a flat convex polygon: a
+/// vertex off the plane by more than [`POLYGON_FLATNESS`], a reflex, straight or repeated
+/// vertex, or no area.
+pub(crate) fn polygon_normal(vertices: &[[f64; 3]]) -> Result<nalgebra::Vector3<f64>, String> {
+    use nalgebra::Vector3;
+    let p: Vec<Vector3<f64>> = vertices.iter().map(|v| Vector3::from(*v)).collect();
+    let n = p.len();
+    let mut newell = Vector3::zeros();
+    for i in 0..n {
+        newell += p[i].cross(&p[(i + 1) % n]);
+    }
+    let size = (1..n).map(|i| (p[i] - p[0]).norm()).fold(0.0, f64::max);
+    if newell.norm() <= 1e-12 * size * size || size == 0.0 {
+        return Err("the polygon has no area".into());
+    }
+    let normal = newell.normalize();
+    let centroid = p.iter().sum::<Vector3<f64>>() / n as f64;
+    if let Some(k) = p
+        .iter()
+        .position(|q| (q - centroid).dot(&normal).abs() > POLYGON_FLATNESS)
+    {
+        return Err(format!("vertices[{k}] is off the polygon's plane"));
+    }
+    for i in 0..n {
+        let (a, b, c) = (p[i], p[(i + 1) % n], p[(i + 2) % n]);
+        if (b - a).cross(&(c - b)).dot(&normal) <= 1e-12 * size * size {
+            return Err(format!(
+                "the polygon is not strictly convex at vertices[{}] (a reflex, straight or repeated vertex)",
+                (i + 1) % n
+            ));
+        }
+    }
+    Ok(normal)
 }
 
 fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
