@@ -178,8 +178,14 @@ struct ClassifyMapArgs {
 
 #[derive(Args)]
 struct BenchArgs {
-    /// Scene files or folders of *.toml (default: scenes/).
+    /// Scene files or folders of *.toml (default: scenes/, unless --generated is given).
     scenes: Vec<PathBuf>,
+    /// Generated scenes, KIND:COUNT[@FIRST_SEED] (repeatable or comma-separated): KIND
+    /// interior, hall, street, pavilion, plaza or all; FIRST_SEED 0 by default. Seeds below
+    /// 1000 develop, 1000–1999 are the test split, e.g. all:10@1000. Reported per kind under
+    /// their own heading.
+    #[arg(long, value_delimiter = ',', value_name = "KIND:COUNT[@FIRST_SEED]")]
+    generated: Vec<String>,
     /// Keep the run: results.md, results.json and a README (date, commit, command, machine)
     /// under RESULTS_DIR/DATE-COMMIT/, and update README.md's results table (between its
     /// markers) when run from the project's folder.
@@ -782,7 +788,9 @@ fn print_scores(name: &str, s: &planemap::classify::dataset::WorkspaceScores) {
 }
 
 fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
-    use planemap::bench::{collect_scene_files, parse_size, run_bench, BenchConfig, Method};
+    use planemap::bench::{
+        collect_scene_files, parse_generated, parse_size, run_bench, BenchConfig, Method,
+    };
     let mut cfg = BenchConfig::default();
     if let Some(m) = &a.methods {
         cfg.methods = if m.iter().any(|s| s == "all") {
@@ -795,6 +803,11 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
     }
     cfg.size = parse_size(&a.size)?;
     cfg.scene_filter = a.scene_filter.clone().unwrap_or_default();
+    cfg.generated = a
+        .generated
+        .iter()
+        .map(|g| parse_generated(g))
+        .collect::<Result<_, _>>()?;
     cfg.cache_dir = a.cache.clone();
     cfg.error_maps = !a.no_maps;
     cfg.sweep.planes = a.sweep_planes;
@@ -804,14 +817,15 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
         None => Config::default(),
     };
     cfg.planemap = planemap::config::with_overrides(&config, &a.overrides)?;
-    let scenes = if a.scenes.is_empty() {
+    // Generated scenes alone when no scene path is given with them.
+    let scenes = if a.scenes.is_empty() && cfg.generated.is_empty() {
         vec![PathBuf::from("scenes")]
     } else {
         a.scenes.clone()
     };
     let files = collect_scene_files(&scenes)?;
     let results = run_bench(&files, &cfg, &a.output, progress)?;
-    println!("{}", planemap::bench::report::markdown(&results));
+    println!("{}", planemap::bench::markdown(&results));
     println!(
         "wrote results.json, results.md, accuracy.png, time.png and maps/ to {}",
         a.output.display()
@@ -824,7 +838,11 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
         let dir = record(&results, &a.output, root, &info)?;
         println!("recorded the run in {}", dir.display());
         let link = dir.to_string_lossy().replace('\\', "/");
-        if update_readme(std::path::Path::new("README.md"), &results, &info, &link)? {
+        // README.md's table is the scene files': generated scenes stay in results.md.
+        let files = results.subset(false);
+        if files.scenes.is_empty() {
+            println!("README.md's results table shows scene files: left as it is");
+        } else if update_readme(std::path::Path::new("README.md"), &files, &info, &link)? {
             println!("updated the results table of README.md");
         }
     }
