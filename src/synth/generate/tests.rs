@@ -116,7 +116,9 @@ fn every_kind_renders_what_it_promises() {
             assert!(st.points >= 50, "{k}-{seed}: {} sparse points", st.points);
             // Plain paint (or render) on 30–70 % of the wall or facade area, as drawn.
             let d = &g.spec.description;
-            let from = d.find("plain ").expect("the description gives the plain share");
+            let from = d
+                .find("plain ")
+                .expect("the description gives the plain share");
             let at = from + d[from..].find(" on ").unwrap() + 4;
             let painted: f64 = d[at..].split(' ').next().unwrap().parse().unwrap();
             assert!((30.0..=70.0).contains(&painted), "{k}-{seed}: {d}");
