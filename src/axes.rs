@@ -596,11 +596,11 @@ pub struct AxisRefineConfig {
     /// A refit direction is accepted only if it moves by at most this many degrees, in
     /// [0, 90]: a larger move is a wrong fit, not a correction.
     pub max_change_deg: f64,
-    /// After the refit, make the axes orthogonal: the axis whose inliers fit their planes
-    /// best (least RMS distance) is kept, the next best is made orthogonal to it, the third
-    /// is their cross product. Off: it straightens the stairs' axes but costs scenes whose
-    /// facades are not exactly orthogonal to the fitted vertical (exterior;
-    /// docs/notes/axes.md).
+    /// After the refit, make the axes orthogonal: the axis whose refit direction is best
+    /// determined (least angular uncertainty, see [`refine_axes_from_planes`]) is kept, the
+    /// next best is made orthogonal to it, the third is their cross product. So an axis fit
+    /// to a few points, or to points along a line (a road seen along a street), cannot tilt
+    /// the others: it becomes the cross product of the two well-determined ones.
     pub orthogonalize: bool,
 }
 
@@ -632,6 +632,12 @@ pub struct AxisPlane {
 /// `normal_tolerance_deg` of the axis. Axes with fewer than 3 inliers, or whose refit moves
 /// more than `max_change_deg`, keep their direction. Returns the refit axes (extra
 /// directions unchanged, pairwise angles recomputed).
+///
+/// The angular uncertainty of an axis's refit is `sqrt(max(λ₁, n σ²) / (λ₂ (n − 3)))`
+/// radians, with `λ₁ ≤ λ₂` the two smallest eigenvalues of its pooled scatter, `n` its
+/// inliers and `σ²` the median over the axes of `λ₁ / n` (the points' noise): the spread of
+/// the residuals against the spread of the points along their least-extended in-plane
+/// direction. `orthogonalize` keeps the axes in order of it.
 // `k` indexes the axes and the per-axis RMS alike.
 #[allow(clippy::needless_range_loop)]
 pub fn refine_axes_from_planes(
@@ -647,8 +653,11 @@ pub fn refine_axes_from_planes(
     let mut out = axes.clone();
     let m = axes.num_manhattan.min(axes.directions.len());
     let band = cfg.inlier_r * scale;
-    // Per axis: RMS distance of the inliers to their planes after the refit.
-    let mut rms = vec![f64::INFINITY; m];
+    // Per axis: the two smallest eigenvalues of the pooled scatter and the inlier count of
+    // an accepted refit, then the angular uncertainty of the direction (radians; ∞ = not
+    // refit).
+    let mut spread: Vec<Option<(f64, f64, usize)>> = vec![None; m];
+    let mut uncertainty = vec![f64::INFINITY; m];
     for k in 0..m {
         let d = axes.directions[k].normalize();
         let mut offs: Vec<f64> = planes
@@ -697,21 +706,44 @@ pub fn refine_axes_from_planes(
             continue;
         }
         let eig = scatter.symmetric_eigen();
-        let imin = (0..3)
-            .min_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]))
-            .unwrap_or(0);
-        rms[k] = (eig.eigenvalues[imin].max(0.0) / count as f64).sqrt();
+        let mut order = [0usize, 1, 2];
+        order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+        let imin = order[0];
+        let (l1, l2) = (
+            eig.eigenvalues[order[0]].max(0.0),
+            eig.eigenvalues[order[1]],
+        );
+        spread[k] = Some((l1, l2, count));
         let mut e: Vector3<f64> = eig.eigenvectors.column(imin).into_owned();
         if e.dot(&d) < 0.0 {
             e = -e;
         }
         if e.iter().all(|v| v.is_finite()) && axial_angle_deg(&e, &d) <= cfg.max_change_deg {
             out.directions[k] = e.normalize();
+        } else {
+            spread[k] = None;
+        }
+    }
+    // A plane's points cannot fit it better than the points' own noise, which the typical
+    // (median) residual variance of the refit axes measures: a few points that happen to
+    // lie on one plane (or were picked from two) are not a precise direction.
+    let mut variances: Vec<f64> = spread
+        .iter()
+        .flatten()
+        .map(|&(l1, _, n)| l1 / n as f64)
+        .collect();
+    variances.sort_by(f64::total_cmp);
+    let floor = variances.get(variances.len() / 2).copied().unwrap_or(0.0);
+    for k in 0..m {
+        if let Some((l1, l2, n)) = spread[k] {
+            if l2 > 0.0 && n > 3 {
+                uncertainty[k] = (l1.max(n as f64 * floor) / (l2 * (n - 3) as f64)).sqrt();
+            }
         }
     }
     if cfg.orthogonalize && m == 3 {
         let mut order: Vec<usize> = (0..3).collect();
-        order.sort_by(|&a, &b| rms[a].total_cmp(&rms[b]).then(a.cmp(&b)));
+        order.sort_by(|&a, &b| uncertainty[a].total_cmp(&uncertainty[b]).then(a.cmp(&b)));
         let a = out.directions[order[0]];
         let b = out.directions[order[1]];
         let b2 = (b - a * a.dot(&b)).normalize();
@@ -1058,6 +1090,72 @@ pub(crate) mod tests {
             assert!((a - 90.0).abs() < 1e-9, "{a}");
         }
         assert_eq!(ortho.pairwise_angles_deg.len(), 3);
+    }
+
+    /// A street: two facade axes with many points over wide patches, the ground seen as a
+    /// strip of ten points along the street that climbs 1 cm per metre (points of a kerb
+    /// and a balcony underside mixed in). Refit alone, the vertical tilts with the strip;
+    /// orthogonalized, the ground axis is the least determined (its points fit their plane
+    /// better than the facades' do, so a ranking by residual would keep it) and becomes the
+    /// facades' cross product.
+    #[test]
+    fn orthogonalize_keeps_the_best_determined_axes_and_rebuilds_a_strip_fitted_one() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        let mut planes = Vec::new();
+        for (axis, off) in [(0usize, 0.0), (0, 3.0), (1, 5.0)] {
+            planes.push(AxisPlane { axis, offset: off });
+            for _ in 0..300 {
+                let mut p = Vector3::new(
+                    rng.random_range(0.0..20.0),
+                    rng.random_range(0.0..8.0),
+                    rng.random_range(0.0..10.0),
+                );
+                p[axis] = off + rng.random_range(-0.003..0.003);
+                positions.push(p);
+                let mut n = Vector3::zeros();
+                n[axis] = 1.0;
+                normals.push(n);
+            }
+        }
+        planes.push(AxisPlane {
+            axis: 2,
+            offset: 0.0,
+        });
+        for i in 0..10 {
+            let x = 2.0 * i as f64;
+            let z = 0.01 * x;
+            positions.push(Vector3::new(x, 6.0 + rng.random_range(-0.2..0.2), z));
+            normals.push(Vector3::z());
+        }
+        let axes = DominantAxes {
+            directions: vec![Vector3::x(), Vector3::y(), Vector3::z()],
+            support: vec![0; 3],
+            pairwise_angles_deg: vec![],
+            num_manhattan: 3,
+            warnings: vec![],
+        };
+        let cfg = AxisRefineConfig {
+            inlier_r: 3.0,
+            ..Default::default()
+        };
+        let refit = refine_axes_from_planes(&axes, &positions, &normals, &planes, 0.1, &cfg);
+        let tilt = axial_angle_deg(&refit.directions[2], &Vector3::z());
+        assert!(tilt > 0.5, "the strip should tilt a free refit: {tilt}°");
+        let ortho = refine_axes_from_planes(
+            &axes,
+            &positions,
+            &normals,
+            &planes,
+            0.1,
+            &AxisRefineConfig {
+                orthogonalize: true,
+                ..cfg
+            },
+        );
+        let tilt = axial_angle_deg(&ortho.directions[2], &Vector3::z());
+        assert!(tilt < 0.05, "vertical {tilt}° off after orthogonalizing");
     }
 
     #[test]

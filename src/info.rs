@@ -3,16 +3,15 @@
 
 use std::collections::{HashMap, HashSet};
 use std::fmt;
-use std::fs::File;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use crate::geometry::CameraModel;
+use crate::geometry::{quaternion_norm, Camera, CameraModel};
 use crate::io::colmap::{
-    find_model, read_model_bin, read_model_text, ColmapError, ColmapModel, ModelFormat,
+    find_model, read_model_bin, read_model_text, ColmapError, ColmapImage, ColmapModel, ModelFormat,
 };
+use crate::scene::SceneError;
 
 /// Errors of model summarising.
 #[derive(Debug, Error)]
@@ -78,7 +77,63 @@ pub enum InfoWarning {
         /// COLMAP `camera_id`.
         camera_id: u32,
     },
+    /// The model has no registered images: there is nothing to reconstruct.
+    NoImages,
+    /// The model has no 3D points: no plane can be found, and `run` would write empty depth
+    /// maps.
+    NoPoints,
+    /// Images whose rotation quaternion is not unit length beyond
+    /// [`QUATERNION_WARN_TOLERANCE`]; they are renormalised as COLMAP does (quaternions too
+    /// far from unit length are read errors).
+    QuaternionsRenormalised {
+        /// How many images.
+        count: usize,
+        /// The image with the largest `|‖q‖ − 1|`.
+        worst_image_id: u32,
+        /// Its name.
+        worst_name: String,
+        /// Its quaternion's norm.
+        worst_norm: f64,
+    },
+    /// A camera that cannot be used for reconstruction (a scene cannot be built from it):
+    /// invalid parameters, or a principal point absurdly far from the image.
+    UnusableCamera {
+        /// COLMAP `camera_id`.
+        camera_id: u32,
+        /// Why.
+        message: String,
+    },
+    /// A camera whose principal point lies outside its image (usable, but unusual: the
+    /// optical axis misses the photograph).
+    PrincipalPointOutside {
+        /// COLMAP `camera_id`.
+        camera_id: u32,
+        /// Principal point.
+        principal_point: (f64, f64),
+        /// Image size.
+        size: (u32, u32),
+    },
+    /// A focal length outside COLMAP's plausible range
+    /// ([`MIN_FOCAL_LENGTH_RATIO`]–[`MAX_FOCAL_LENGTH_RATIO`] × the larger image side).
+    ImplausibleFocalLength {
+        /// COLMAP `camera_id`.
+        camera_id: u32,
+        /// The implausible focal length in pixels (fx, or fy when only fy is).
+        focal: f64,
+        /// Focal length / larger image side.
+        ratio: f64,
+    },
 }
+
+/// Rotation quaternions whose norm differs from 1 by more than this are reported by `info`
+/// ([`InfoWarning::QuaternionsRenormalised`]): full-precision writers (COLMAP, pycolmap,
+/// planemap) stay within ~1e-15, so anything beyond 1e-9 lost digits or was edited.
+pub const QUATERNION_WARN_TOLERANCE: f64 = 1e-9;
+/// COLMAP's `min_focal_length_ratio` (bundle adjustment treats a camera with a smaller
+/// focal length / image size ratio as bogus).
+pub const MIN_FOCAL_LENGTH_RATIO: f64 = 0.1;
+/// COLMAP's `max_focal_length_ratio`.
+pub const MAX_FOCAL_LENGTH_RATIO: f64 = 10.0;
 
 impl fmt::Display for InfoWarning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -115,6 +170,46 @@ impl fmt::Display for InfoWarning {
             InfoWarning::UnusedCamera { camera_id } => {
                 write!(f, "camera {camera_id} is used by no image")
             }
+            InfoWarning::NoImages => write!(
+                f,
+                "the model has no images: there is nothing to reconstruct"
+            ),
+            InfoWarning::NoPoints => write!(
+                f,
+                "the model has no 3D points: planes cannot be found and depth maps would be empty"
+            ),
+            InfoWarning::QuaternionsRenormalised {
+                count,
+                worst_image_id,
+                worst_name,
+                worst_norm,
+            } => write!(
+                f,
+                "{count} image(s) have a rotation quaternion that is not unit length (worst: \
+                 image {worst_image_id} ({worst_name}), norm {worst_norm:?}); renormalised as \
+                 COLMAP does"
+            ),
+            InfoWarning::UnusableCamera { camera_id, message } => write!(
+                f,
+                "camera {camera_id} cannot be used for reconstruction: {message}"
+            ),
+            InfoWarning::PrincipalPointOutside {
+                camera_id,
+                principal_point: (cx, cy),
+                size: (w, h),
+            } => write!(
+                f,
+                "camera {camera_id}: principal point ({cx:?}, {cy:?}) lies outside its {w}x{h} image"
+            ),
+            InfoWarning::ImplausibleFocalLength {
+                camera_id,
+                focal,
+                ratio,
+            } => write!(
+                f,
+                "camera {camera_id}: focal length {focal:?} px is {ratio:.3} times the larger \
+                 image side (COLMAP finds outside {MIN_FOCAL_LENGTH_RATIO}–{MAX_FOCAL_LENGTH_RATIO} implausible)"
+            ),
         }
     }
 }
@@ -162,50 +257,45 @@ pub struct ModelInfo {
     pub warnings: Vec<InfoWarning>,
 }
 
-/// Width and height from a PNG / JPEG (or other format the `image` crate knows) header,
-/// without decoding the pixels.
+/// Width and height from a PNG / JPEG header, without decoding the pixels; the format is
+/// detected from the content, as [`crate::scene::View::load_image`] does.
 pub fn image_size(path: &Path) -> Result<(u32, u32), String> {
-    let mut head = [0u8; 2];
-    let is_jpeg = File::open(path)
-        .and_then(|mut f| f.read_exact(&mut head))
-        .map(|_| head == [0xFF, 0xD8])
-        .unwrap_or(false);
-    if is_jpeg {
-        let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
-        return jpeg_size(&bytes).ok_or_else(|| "no JPEG frame header found".to_string());
-    }
-    image::image_dimensions(path).map_err(|e| e.to_string())
+    crate::scene::image_file_size(path).map_err(|e| match e {
+        SceneError::Image { message, .. } => message,
+        other => other.to_string(),
+    })
 }
 
-/// Size from the first SOFn marker of a JPEG stream (the `image` crate is built without its
-/// JPEG decoder here).
-fn jpeg_size(b: &[u8]) -> Option<(u32, u32)> {
-    let mut i = 2;
-    while i + 4 <= b.len() {
-        if b[i] != 0xFF {
-            return None;
-        }
-        let marker = b[i + 1];
-        if marker == 0xFF {
-            i += 1;
-            continue;
-        }
-        // Markers without a length field.
-        if marker == 0x01 || (0xD0..=0xD9).contains(&marker) {
-            i += 2;
-            continue;
-        }
-        let len = usize::from(u16::from_be_bytes([b[i + 2], b[i + 3]]));
-        let is_sof = (0xC0..=0xCF).contains(&marker) && !matches!(marker, 0xC4 | 0xC8 | 0xCC);
-        if is_sof {
-            let s = b.get(i + 4..i + 9)?;
-            let h = u32::from(u16::from_be_bytes([s[1], s[2]]));
-            let w = u32::from(u16::from_be_bytes([s[3], s[4]]));
-            return Some((w, h));
-        }
-        i += 2 + len;
+/// The camera warnings of one camera: unusable, principal point outside, focal ratio.
+fn camera_warnings(camera_id: u32, camera: &Camera, warnings: &mut Vec<InfoWarning>) {
+    if let Err(e) = camera.check_usable() {
+        warnings.push(InfoWarning::UnusableCamera {
+            camera_id,
+            message: e.to_string(),
+        });
+        return;
     }
-    None
+    let (w, h) = (f64::from(camera.width), f64::from(camera.height));
+    let (cx, cy) = (camera.cx(), camera.cy());
+    if !(0.0..=w).contains(&cx) || !(0.0..=h).contains(&cy) {
+        warnings.push(InfoWarning::PrincipalPointOutside {
+            camera_id,
+            principal_point: (cx, cy),
+            size: (camera.width, camera.height),
+        });
+    }
+    let side = w.max(h);
+    for focal in [camera.fx(), camera.fy()] {
+        let ratio = focal / side;
+        if !(MIN_FOCAL_LENGTH_RATIO..=MAX_FOCAL_LENGTH_RATIO).contains(&ratio) {
+            warnings.push(InfoWarning::ImplausibleFocalLength {
+                camera_id,
+                focal,
+                ratio,
+            });
+            break;
+        }
+    }
 }
 
 /// The `p`-th percentile (0..=100) of sorted values, nearest rank.
@@ -234,6 +324,32 @@ impl ModelInfo {
         images_dir: Option<&Path>,
     ) -> ModelInfo {
         let mut warnings = Vec::new();
+        if model.images.is_empty() {
+            warnings.push(InfoWarning::NoImages);
+        }
+        if model.points3d.is_empty() {
+            warnings.push(InfoWarning::NoPoints);
+        }
+        for c in &model.cameras {
+            camera_warnings(c.camera_id, &c.camera, &mut warnings);
+        }
+        let off_unit: Vec<(&ColmapImage, f64)> = model
+            .images
+            .iter()
+            .map(|im| (im, quaternion_norm(im.qvec)))
+            .filter(|(_, n)| !n.is_finite() || (n - 1.0).abs() > QUATERNION_WARN_TOLERANCE)
+            .collect();
+        if let Some((worst, norm)) = off_unit
+            .iter()
+            .max_by(|a, b| (a.1 - 1.0).abs().total_cmp(&(b.1 - 1.0).abs()))
+        {
+            warnings.push(InfoWarning::QuaternionsRenormalised {
+                count: off_unit.len(),
+                worst_image_id: worst.image_id,
+                worst_name: worst.name.clone(),
+                worst_norm: *norm,
+            });
+        }
         let mut uses: HashMap<u32, usize> = HashMap::new();
         for im in &model.images {
             *uses.entry(im.camera_id).or_default() += 1;
@@ -527,13 +643,96 @@ mod tests {
     }
 
     #[test]
-    fn jpeg_header_size() {
-        // SOI, APP0 (len 4), SOF0 with height 0x0102, width 0x0304.
-        let b = [
-            0xFF, 0xD8, 0xFF, 0xE0, 0x00, 0x04, 0x00, 0x00, 0xFF, 0xC0, 0x00, 0x11, 0x08, 0x01,
-            0x02, 0x03, 0x04,
-        ];
-        assert_eq!(jpeg_size(&b), Some((0x0304, 0x0102)));
-        assert_eq!(jpeg_size(&b[..10]), None);
+    fn image_size_reads_headers_by_content() {
+        let dir = tempfile::tempdir().unwrap();
+        let jpeg_as_png = dir.path().join("a.png");
+        image::RgbImage::new(7, 5)
+            .save_with_format(&jpeg_as_png, image::ImageFormat::Jpeg)
+            .unwrap();
+        assert_eq!(image_size(&jpeg_as_png), Ok((7, 5)));
+        let junk = dir.path().join("b.png");
+        std::fs::write(&junk, b"not an image").unwrap();
+        assert!(image_size(&junk).is_err());
+    }
+
+    #[test]
+    fn empty_model_is_warned_about() {
+        let empty = ColmapModel::default();
+        let info = ModelInfo::from_model(&empty, PathBuf::from("m"), ModelFormat::Text, None);
+        assert_eq!(
+            info.warnings,
+            vec![InfoWarning::NoImages, InfoWarning::NoPoints]
+        );
+        let text = info.to_string();
+        assert!(!text.contains("warnings: none"), "{text}");
+        assert!(text.contains("no 3D points"), "{text}");
+        // Images but no points.
+        let mut m = model();
+        m.points3d.clear();
+        let info = ModelInfo::from_model(&m, PathBuf::from("m"), ModelFormat::Text, None);
+        assert!(info.warnings.contains(&InfoWarning::NoPoints));
+        assert!(!info.warnings.contains(&InfoWarning::NoImages));
+    }
+
+    #[test]
+    fn absurd_intrinsics_are_warned_about() {
+        let mut m = model();
+        // Camera 1 (8x6, used): principal point 1e300; camera 2 (4x4): focal ≤ 0.
+        m.cameras[0].camera.params[2] = 1e300;
+        m.cameras[1].camera.params[0] = -5.0;
+        let info = ModelInfo::from_model(&m, PathBuf::from("m"), ModelFormat::Text, None);
+        let text = info.to_string();
+        assert!(
+            text.contains(
+                "camera 1 cannot be used for reconstruction: principal point (1e300, 3.0)"
+            ),
+            "{text}"
+        );
+        assert!(
+            text.contains(
+                "camera 2 cannot be used for reconstruction: camera parameter 0 (fx) is -5.0"
+            ),
+            "{text}"
+        );
+        // Outside the image but not absurd, and a focal 100x the image side.
+        let mut m = model();
+        m.cameras[0].camera.params[2] = -3.0;
+        m.cameras[1].camera.params[0] = 400.0;
+        m.cameras[1].camera.params[1] = 400.0;
+        let info = ModelInfo::from_model(&m, PathBuf::from("m"), ModelFormat::Text, None);
+        assert!(info.warnings.contains(&InfoWarning::PrincipalPointOutside {
+            camera_id: 1,
+            principal_point: (-3.0, 3.0),
+            size: (8, 6)
+        }));
+        assert!(info
+            .warnings
+            .contains(&InfoWarning::ImplausibleFocalLength {
+                camera_id: 2,
+                focal: 400.0,
+                ratio: 100.0
+            }));
+    }
+
+    #[test]
+    fn renormalised_quaternions_are_warned_about() {
+        let mut m = model();
+        m.images[1].qvec = [1.0004, 0.0, 0.0, 0.0];
+        m.images[2].qvec = [0.0, 0.0, 0.99995, 0.0];
+        let info = ModelInfo::from_model(&m, PathBuf::from("m"), ModelFormat::Text, None);
+        assert!(
+            info.warnings
+                .contains(&InfoWarning::QuaternionsRenormalised {
+                    count: 2,
+                    worst_image_id: 2,
+                    worst_name: "b.png".into(),
+                    worst_norm: 1.0004
+                }),
+            "{:?}",
+            info.warnings
+        );
+        assert!(info
+            .to_string()
+            .contains("2 image(s) have a rotation quaternion"));
     }
 }

@@ -236,17 +236,17 @@ struct SweepArgs {
     /// Images directory (default: ../images beside the model).
     #[arg(long)]
     images: Option<PathBuf>,
-    /// Output directory (depth/NAME.pfm; NaN = no depth).
+    /// Output directory (depth/NAME.pfm; 0 = no depth).
     #[arg(short, long)]
     output: PathBuf,
-    /// Only these views (comma-separated indices).
+    /// Only these views (comma-separated): indices in image-id order, or image names.
     #[arg(long, value_delimiter = ',')]
-    views: Option<Vec<usize>>,
+    views: Option<Vec<String>>,
     /// Ground truth directory (default: ../gt beside the model, if present).
     #[arg(long)]
     gt: Option<PathBuf>,
     /// Setting overrides `key=value` of the sweep baseline config (TOML values), e.g.
-    /// `--set sweep.photo.window_radius=5 --set axis_families=false`.
+    /// `--set photo.window_radius=5 --set axis_families=false`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
 }
@@ -266,15 +266,16 @@ struct RunArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Configuration file (TOML; sections normals, axes, hypotheses, planemap, solver,
-    /// fusion).
+    /// fusion, nonplanar; `planemap config --defaults` prints them all).
     #[arg(long)]
     config: Option<PathBuf>,
     /// Override a config value, e.g. --set planemap.lambda=0.5 (repeatable).
     #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
     overrides: Vec<String>,
-    /// Only these views (comma-separated indices in image-id order).
+    /// Only these views (comma-separated): indices in image-id order (not name order: after
+    /// SfM the two often differ), or image names as in the model.
     #[arg(long, value_delimiter = ',')]
-    views: Option<Vec<usize>>,
+    views: Option<Vec<String>>,
     /// Skip views whose outputs already exist.
     #[arg(long)]
     resume: bool,
@@ -344,10 +345,25 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_chain(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes as one line, `outer: cause: root`, leaving out a cause whose
+/// text the line already holds (our errors often print their source inside their own
+/// message, and `{:#}` would then repeat it).
+fn error_chain(e: &anyhow::Error) -> String {
+    let mut line = e.to_string();
+    for cause in e.chain().skip(1) {
+        let text = cause.to_string();
+        if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    line
 }
 
 fn init_logging(quiet: bool, verbose: u8) {
@@ -359,9 +375,11 @@ fn init_logging(quiet: bool, verbose: u8) {
     };
     let filter = tracing_subscriber::EnvFilter::try_from_env("PLANEMAP_LOG")
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    // Colour codes only on a terminal: logs redirected to a file stay plain text.
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .try_init();
 }
 
@@ -462,7 +480,11 @@ fn run(a: RunArgs, progress: &Progress) -> Result<()> {
         (scene, a.gt.clone().or_else(|| sibling_gt(model_dir)))
     };
     let opts = RunOptions {
-        views: a.views.clone(),
+        views: a
+            .views
+            .as_deref()
+            .map(|v| view_indices(&scene, v))
+            .transpose()?,
         resume: a.resume,
     };
     reconstruct(&scene, &config, &a.output, &opts, gt.as_deref(), progress)
@@ -485,7 +507,7 @@ fn reconstruct(
     let (prepared, views, summary) = pipeline::run(scene, config, out, opts, progress)
         .with_context(|| format!("reconstructing into {}", out.display()))?;
     println!(
-        "R = {:.4}; {} dominant directions (angles: {}); {} plane hypotheses",
+        "R = {:.4}; {} dominant directions (angles: {}); {} plane hypotheses ({} of them crease hypotheses)",
         summary.scale,
         summary.directions.len(),
         summary
@@ -494,7 +516,8 @@ fn reconstruct(
             .map(|(i, j, a)| format!("d{}-d{} {:.1}°", i + 1, j + 1, a))
             .collect::<Vec<_>>()
             .join(", "),
-        summary.hypotheses
+        summary.hypotheses,
+        summary.crease_hypotheses
     );
     let [t_n, t_a, t_h, t_v, t_f] = summary.stage_seconds;
     println!(
@@ -568,17 +591,11 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
         .iter()
         .map(|v| v.load_undistorted_image())
         .collect::<Result<_, _>>()?;
-    let indices = a
-        .views
-        .clone()
-        .unwrap_or_else(|| (0..scene.views.len()).collect());
-    if let Some(&bad) = indices.iter().find(|&&i| i >= scene.views.len()) {
-        anyhow::bail!(
-            "--views: view index {bad} out of range (the model has {} views, 0..{})",
-            scene.views.len(),
-            scene.views.len()
-        );
-    }
+    let indices = match &a.views {
+        Some(v) => view_indices(&scene, v)?,
+        None => (0..scene.views.len()).collect(),
+    };
+    planemap::io::check_image_names(scene.views.iter().map(|v| v.name.as_str()))?;
     // Every view's ground-truth depth, read once: the swept views are scored against their
     // own, and the covisible-surface figure needs the others' (stereo cannot measure what
     // only one view sees).
@@ -601,15 +618,19 @@ fn sweep(a: SweepArgs, progress: &Progress) -> Result<()> {
     for &i in &indices {
         let view = &scene.views[i];
         let result = sweep_view_with_axes(&scene, &all, i, &axes, &cfg)?;
-        let stem = planemap::io::output_stem(&view.name);
+        // 0 marks "no depth" in every depth map planemap writes (the sweep's NaN).
         let depth = planemap::ImageF32 {
             width: view.camera.width,
             height: view.camera.height,
             channels: 1,
-            data: result.depth.clone(),
+            data: result
+                .depth
+                .iter()
+                .map(|&z| if z.is_finite() && z > 0.0 { z } else { 0.0 })
+                .collect(),
         };
         planemap::io::pfm::write_pfm_path(
-            &a.output.join("depth").join(format!("{stem}.pfm")),
+            &output_file(&a.output.join("depth"), &view.name, ".pfm")?,
             &depth,
         )?;
         if let Some(gt) = &gt {
@@ -733,13 +754,13 @@ fn classify(c: ClassifyCommand, progress: &Progress) -> Result<()> {
             let mut written = 0usize;
             if let Some(sparse) = sparse {
                 let scene = planemap::io::colmap::read_model(&sparse)?.to_scene(Some(&a.images))?;
+                planemap::io::check_image_names(scene.views.iter().map(|v| v.name.as_str()))?;
                 let bar = progress.bar(scene.views.len() as u64, "planarity maps");
                 for (i, view) in scene.views.iter().enumerate() {
                     let image = view.load_image()?;
                     let points = cls::ViewPoints::from_scene(&scene, i);
                     let map = model.planarity_map(&image, Some(&points))?;
-                    let stem = planemap::io::output_stem(&view.name);
-                    map.write_png(&a.output.join(format!("{stem}.png")))?;
+                    map.write_png(&output_file(&a.output, &view.name, ".png")?)?;
                     written += 1;
                     bar.inc(1);
                 }
@@ -757,12 +778,11 @@ fn classify(c: ClassifyCommand, progress: &Progress) -> Result<()> {
                     .collect();
                 files.sort();
                 for f in &files {
-                    let rgb = image::open(f)
-                        .with_context(|| format!("reading {}", f.display()))?
-                        .to_rgb8();
-                    let map = model.planarity_map(&planemap::ImageF32::from_rgb8(&rgb), None)?;
-                    let stem = planemap::io::output_stem(&f.to_string_lossy());
-                    map.write_png(&a.output.join(format!("{stem}.png")))?;
+                    // Format from the content, size checked before decoding.
+                    let image = planemap::scene::load_image_file(f, None)?;
+                    let map = model.planarity_map(&image, None)?;
+                    let name = f.file_name().unwrap_or_default().to_string_lossy();
+                    map.write_png(&output_file(&a.output, &name, ".png")?)?;
                     written += 1;
                 }
             }
@@ -874,4 +894,41 @@ fn diag(d: DiagCommand) -> Result<()> {
         DiagCommand::ScoreSplit(a) => diag::split::run(&a),
     };
     r.map_err(|e| anyhow::anyhow!(e))
+}
+
+/// `dir/STEM{suffix}` for an image name (its output stem keeps subfolders), with the folders
+/// it needs created.
+fn output_file(dir: &std::path::Path, image_name: &str, suffix: &str) -> Result<PathBuf> {
+    let path = dir.join(format!("{}{suffix}", planemap::io::output_stem(image_name)));
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
+    }
+    Ok(path)
+}
+
+/// `--views` entries as view indices, each once: an index in image-id order, or an image
+/// name as in the model.
+fn view_indices(scene: &planemap::Scene, views: &[String]) -> Result<Vec<usize>> {
+    let n = scene.views.len();
+    let mut seen = std::collections::BTreeSet::new();
+    let mut out = Vec::new();
+    for v in views {
+        let v = v.trim();
+        let i = match v.parse::<usize>() {
+            Ok(i) if i < n => i,
+            Ok(i) => anyhow::bail!(
+                "--views: view index {i} out of range (the model has {n} views, 0..{n})"
+            ),
+            Err(_) => scene
+                .views
+                .iter()
+                .position(|view| view.name == v)
+                .with_context(|| format!("--views: no image named {v:?} in the model"))?,
+        };
+        if seen.insert(i) {
+            out.push(i);
+        }
+    }
+    Ok(out)
 }

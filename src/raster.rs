@@ -5,6 +5,25 @@
 
 use image::{Rgb, RgbImage};
 
+/// Most bytes one byte of deflate (zlib) data can inflate to: zlib documents a maximum
+/// compression factor of 1032:1 (a 258-byte match coded in about 2 bits).
+pub const DEFLATE_MAX_RATIO: u64 = 1032;
+
+/// The fewest bytes the pixel data of a `width × height` PNG with `bits_per_pixel` inflates
+/// to: rows of ⌈width·bits/8⌉ bytes (filter bytes and interlacing only add to it).
+pub fn png_min_inflated_bytes(width: u32, height: u32, bits_per_pixel: u16) -> u64 {
+    let row_bits = u64::from(width) * u64::from(bits_per_pixel);
+    u64::from(height).saturating_mul(row_bits.div_ceil(8))
+}
+
+/// Whether a PNG file of `file_len` bytes can hold the pixels its header declares. A file
+/// that cannot is truncated or forged, and is refused before the decoder allocates the
+/// declared size (a 100-byte PNG can declare 4 × 33 554 433 16-bit pixels: 268 MB).
+pub fn png_can_hold(width: u32, height: u32, bits_per_pixel: u16, file_len: u64) -> bool {
+    png_min_inflated_bytes(width, height, bits_per_pixel)
+        <= file_len.saturating_mul(DEFLATE_MAX_RATIO)
+}
+
 /// A `width × height × channels` image stored row-major, channels interleaved.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImageF32 {

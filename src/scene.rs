@@ -4,13 +4,16 @@
 //! indices (not COLMAP image ids). Distorted cameras are turned into undistorted PINHOLE
 //! cameras when a scene is loaded (see [`Scene::undistorted`] and [`undistort_image`]).
 
+use std::fs::File;
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
+use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader};
 use nalgebra::{Point3, Vector2, Vector3};
 use thiserror::Error;
 
 use crate::geometry::{camera_center, Camera, Rigid3};
-use crate::raster::ImageF32;
+use crate::raster::{png_can_hold, ImageF32};
 
 /// Errors of scene assembly and image loading.
 #[derive(Debug, Error)]
@@ -83,27 +86,15 @@ impl View {
         )
     }
 
-    /// Loads the image as RGB in `[0, 1]`, checking its size against the camera.
+    /// Loads the image as RGB in `[0, 1]` with [`load_image_file`], checking its size against
+    /// the camera before any pixel is decoded (a small file declaring a huge image costs
+    /// nothing) and detecting the format from the content (a JPEG named `.png` loads).
     pub fn load_image(&self) -> Result<ImageF32, SceneError> {
         let path = self
             .image_path
             .as_ref()
             .ok_or_else(|| SceneError::NoImage(self.name.clone()))?;
-        let img = image::open(path).map_err(|e| SceneError::Image {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
-        let rgb = img.to_rgb8();
-        if rgb.width() != self.camera.width || rgb.height() != self.camera.height {
-            return Err(SceneError::ImageSize {
-                path: path.clone(),
-                got_w: rgb.width(),
-                got_h: rgb.height(),
-                want_w: self.camera.width,
-                want_h: self.camera.height,
-            });
-        }
-        Ok(ImageF32::from_rgb8(&rgb))
+        load_image_file(path, Some((self.camera.width, self.camera.height)))
     }
 
     /// Loads the image and, for a distorted camera, resamples it to [`Camera::undistorted`].
@@ -115,6 +106,78 @@ impl View {
             Ok(img)
         }
     }
+}
+
+/// A reader for an image file whose format is detected from its first bytes, falling back
+/// to the extension: photographs are often renamed (a JPEG saved as `.png`).
+fn image_reader(path: &Path) -> Result<ImageReader<BufReader<File>>, SceneError> {
+    let err = |e: std::io::Error| SceneError::Image {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    ImageReader::open(path)
+        .map_err(err)?
+        .with_guessed_format()
+        .map_err(err)
+}
+
+/// Width and height of an image file from its header, without decoding pixels; the format
+/// is detected from the content, not the extension.
+pub fn image_file_size(path: &Path) -> Result<(u32, u32), SceneError> {
+    image_reader(path)?
+        .into_dimensions()
+        .map_err(|e| SceneError::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
+}
+
+/// Loads an image file as RGB in `[0, 1]`. The format is detected from the content; the size
+/// is read from the header first and, when `expected` is given, must equal it before any
+/// pixel is decoded; a PNG whose bytes cannot hold the pixels its header declares is refused
+/// before the decoder allocates them.
+pub fn load_image_file(path: &Path, expected: Option<(u32, u32)>) -> Result<ImageF32, SceneError> {
+    let (w, h) = image_file_size(path)?;
+    if let Some((want_w, want_h)) = expected {
+        if (w, h) != (want_w, want_h) {
+            return Err(SceneError::ImageSize {
+                path: path.to_path_buf(),
+                got_w: w,
+                got_h: h,
+                want_w,
+                want_h,
+            });
+        }
+    }
+    let mut reader = image_reader(path)?;
+    let is_png = reader.format() == Some(ImageFormat::Png);
+    // The header was checked; hold the decoder to it should the file change meanwhile.
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(w);
+    limits.max_image_height = Some(h);
+    reader.limits(limits);
+    let image_err = |e: image::ImageError| SceneError::Image {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let decoder = reader.into_decoder().map_err(image_err)?;
+    if is_png {
+        // A PNG smaller than its pixels could compress to is truncated or forged: refuse it
+        // before the decoder allocates the declared size.
+        let bits = decoder.original_color_type().bits_per_pixel();
+        let file_len = std::fs::metadata(path).map_or(u64::MAX, |m| m.len());
+        if !png_can_hold(w, h, bits, file_len) {
+            return Err(SceneError::Image {
+                path: path.to_path_buf(),
+                message: format!(
+                    "PNG header declares {w}x{h} pixels of {bits} bits, more than its \
+                     {file_len} bytes can inflate to: truncated or corrupt"
+                ),
+            });
+        }
+    }
+    let img = DynamicImage::from_decoder(decoder).map_err(image_err)?;
+    Ok(ImageF32::from_rgb8(&img.to_rgb8()))
 }
 
 /// Sparse 3D points (structure-from-motion or PMVS patches), as parallel arrays.
@@ -300,6 +363,109 @@ mod tests {
                 assert!((und.get(x, y, 0) - want).abs() < 2e-3);
             }
         }
+    }
+
+    fn view_of(path: &Path, w: u32, h: u32) -> View {
+        View {
+            id: 1,
+            name: "v.png".into(),
+            camera: Camera::pinhole(w, h, 10.0, 10.0, w as f64 / 2.0, h as f64 / 2.0),
+            cam_from_world: Rigid3::identity(),
+            image_path: Some(path.to_path_buf()),
+        }
+    }
+
+    /// A PNG declaring `w`x`h` RGB whose pixel data is a few bytes of an unfinished zlib
+    /// stream: what a small file claiming a huge image looks like up to the first IDAT chunk.
+    fn png_header_only(w: u32, h: u32) -> Vec<u8> {
+        fn crc32(bytes: &[u8]) -> u32 {
+            let mut c = !0u32;
+            for &b in bytes {
+                c ^= u32::from(b);
+                for _ in 0..8 {
+                    c = if c & 1 == 1 {
+                        0xEDB8_8320 ^ (c >> 1)
+                    } else {
+                        c >> 1
+                    };
+                }
+            }
+            !c
+        }
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        let mut chunk = |kind: &[u8], data: &[u8]| {
+            png.extend_from_slice(&(data.len() as u32).to_be_bytes());
+            let body = [kind, data].concat();
+            png.extend_from_slice(&body);
+            png.extend_from_slice(&crc32(&body).to_be_bytes());
+        };
+        let mut ihdr = w.to_be_bytes().to_vec();
+        ihdr.extend_from_slice(&h.to_be_bytes());
+        ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+        chunk(b"IHDR", &ihdr);
+        chunk(b"IDAT", &[0x78, 0x9c, 0xed, 0xc1, 0x01, 0x0d]);
+        chunk(b"IEND", &[]);
+        png
+    }
+
+    #[test]
+    fn oversized_image_is_rejected_from_its_header() {
+        // 20000x12000 declared in 72 bytes: the size check must come before decoding
+        // (which would want 720 MB, or fail on the missing pixels with a decoder message).
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("huge.png");
+        std::fs::write(&path, png_header_only(20_000, 12_000)).unwrap();
+        let err = view_of(&path, 64, 48).load_image().unwrap_err();
+        assert!(
+            matches!(
+                err,
+                SceneError::ImageSize {
+                    got_w: 20_000,
+                    got_h: 12_000,
+                    want_w: 64,
+                    want_h: 48,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(err.to_string().contains("huge.png"), "{err}");
+    }
+
+    #[test]
+    fn a_png_smaller_than_its_pixels_is_refused_before_decoding() {
+        // Header and camera agree on 20000x12000 RGB (720 MB), but 72 bytes cannot hold it.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("forged.png");
+        std::fs::write(&path, png_header_only(20_000, 12_000)).unwrap();
+        let err = view_of(&path, 20_000, 12_000)
+            .load_image()
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("forged.png")
+                && err.contains("declares 20000x12000 pixels of 24 bits")
+                && err.contains("truncated or corrupt"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_jpeg_named_png_loads() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("photo.png");
+        let img = image::RgbImage::from_fn(16, 12, |x, y| {
+            image::Rgb([(x * 16) as u8, (y * 20) as u8, 90])
+        });
+        img.save_with_format(&path, image::ImageFormat::Jpeg)
+            .unwrap();
+        assert_eq!(&std::fs::read(&path).unwrap()[..2], &[0xFF, 0xD8]);
+        assert_eq!(image_file_size(&path).unwrap(), (16, 12));
+        let loaded = view_of(&path, 16, 12).load_image().unwrap();
+        assert_eq!((loaded.width, loaded.height), (16, 12));
+        assert_eq!(load_image_file(&path, None).unwrap(), loaded);
+        // JPEG is lossy: near, not equal.
+        assert!((loaded.get(8, 6, 2) - 90.0 / 255.0).abs() < 0.05);
     }
 
     #[test]

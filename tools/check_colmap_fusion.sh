@@ -18,12 +18,18 @@ dense=$(mktemp -d)
 trap 'rm -rf "$dense"' EXIT
 ln -s "$ws/images" "$dense/images"
 mkdir -p "$dense/sparse" "$dense/stereo"
-# COLMAP 3.8 reads the model from sparse/ in binary form.
-cp "$ws"/sparse/*.bin "$dense/sparse/"
+# COLMAP 3.8 reads the model from sparse/ in binary form: the undistorted model the run wrote
+# (the maps are in its pinhole cameras), or the workspace's own for runs older than that.
+if [ -f "$run/sparse/cameras.bin" ]; then
+    cp "$run"/sparse/*.bin "$dense/sparse/"
+else
+    cp "$ws"/sparse/*.bin "$dense/sparse/"
+fi
 ln -s "$run/stereo/depth_maps" "$dense/stereo/depth_maps"
 ln -s "$run/stereo/normal_maps" "$dense/stereo/normal_maps"
 # fusion.cfg: the images to fuse (those planemap labelled), one name per line.
-(cd "$run/stereo/depth_maps" && ls *.geometric.bin | sed 's/\.geometric\.bin$//') > "$dense/stereo/fusion.cfg"
+# Names keep their folders (cam0/frame.png), so search the tree.
+(cd "$run/stereo/depth_maps" && find . -name '*.geometric.bin' | sed 's|^\./||; s/\.geometric\.bin$//' | sort) > "$dense/stereo/fusion.cfg"
 QT_QPA_PLATFORM=offscreen colmap stereo_fusion \
     --workspace_path "$dense" --workspace_format COLMAP --input_type geometric \
     --output_path "$dense/fused.ply" 2>&1 | tail -n 5

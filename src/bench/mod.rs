@@ -456,6 +456,27 @@ struct Prediction {
     stages: Vec<(String, f64)>,
 }
 
+/// A scene's `name` names folders of the output (`runs/NAME/`, `maps/NAME/`, the cache): it
+/// must be one plain path component, so that no scene file can make the benchmark write
+/// outside its output folder.
+pub fn check_scene_name(name: &str, file: &Path) -> Result<(), BenchError> {
+    let plain = !name.is_empty()
+        && name != "."
+        && name != ".."
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+    if plain {
+        Ok(())
+    } else {
+        Err(BenchError::Option(format!(
+            "{}: scene name {name:?} must be letters, digits, '-', '_' or '.' (it names \
+             the scene's output folders)",
+            file.display()
+        )))
+    }
+}
+
 /// Runs the benchmark on `scene_files`, writing into `out`: `results.json`, `results.md`,
 /// `accuracy.png`, `time.png`, `maps/SCENE/VIEW.png` and each method's run under `runs/`.
 pub fn run_bench(
@@ -478,6 +499,7 @@ pub fn run_bench(
     for (file, generated) in &jobs {
         let file = file.as_path();
         let spec = crate::synth::SceneSpec::from_path(file)?;
+        check_scene_name(&spec.name, file)?;
         let category = if spec.category.is_empty() {
             default_category(&spec.name).to_string()
         } else {

@@ -236,6 +236,22 @@ pub fn train(
     if set.is_empty() {
         return Err(ClassifyError::InvalidInput("empty training set".into()));
     }
+    // One class only: the model would call everything that class. Say so instead.
+    let nonplanar = set.nonplanar();
+    if nonplanar == 0 || nonplanar == set.len() {
+        let (have, missing) = if nonplanar == 0 {
+            (
+                "planar",
+                "non-planar (gt/planes id 0: trees, statues, clutter)",
+            )
+        } else {
+            ("non-planar", "planar")
+        };
+        return Err(ClassifyError::InvalidInput(format!(
+            "all {} training cells are {have}: add workspaces with {missing} surfaces",
+            set.len()
+        )));
+    }
     if !(0.0..=1.0).contains(&config.threshold) {
         return Err(ClassifyError::InvalidConfig(format!(
             "threshold {} (want 0..=1)",

@@ -42,19 +42,17 @@ pub enum EvalError {
         /// What went wrong.
         message: String,
     },
-    /// Ground truth and result disagree in size.
-    #[error("view {view}: ground truth is {gt_w}x{gt_h} but the result is {w}x{h}")]
-    Size {
+    /// A ground-truth map disagrees with the view's result in size or channels.
+    #[error("view {view}: {path} is {found} but the result is {expected}")]
+    Shape {
         /// The view's image name.
         view: String,
-        /// Ground-truth width.
-        gt_w: u32,
-        /// Ground-truth height.
-        gt_h: u32,
-        /// Result width.
-        w: u32,
-        /// Result height.
-        h: u32,
+        /// The ground-truth file.
+        path: String,
+        /// Its width × height (× channels).
+        found: String,
+        /// What the view's result needs.
+        expected: String,
     },
 }
 
@@ -215,16 +213,29 @@ pub fn evaluate(
     for v in views {
         let name = &scene.views[v.view_index].name;
         let stem = output_stem(name);
-        let depth = read_pfm_path(&gt_dir.join("depth").join(format!("{stem}.pfm")))?;
-        let (w, h, ids) = read_label_png(&gt_dir.join("planes").join(format!("{stem}.png")))?;
-        if (w, h) != (v.width, v.height) || (depth.width, depth.height) != (w, h) {
-            return Err(EvalError::Size {
-                view: name.clone(),
-                gt_w: w,
-                gt_h: h,
-                w: v.width,
-                h: v.height,
-            });
+        let depth_path = gt_dir.join("depth").join(format!("{stem}.pfm"));
+        let depth = read_pfm_path(&depth_path)?;
+        let ids_path = gt_dir.join("planes").join(format!("{stem}.png"));
+        let (w, h, ids) = read_label_png(&ids_path)?;
+        let shape_err = |path: &Path, found: String, expected: String| EvalError::Shape {
+            view: name.clone(),
+            path: path.display().to_string(),
+            found,
+            expected,
+        };
+        if (depth.width, depth.height, depth.channels) != (v.width, v.height, 1) {
+            return Err(shape_err(
+                &depth_path,
+                format!("{}x{}x{}", depth.width, depth.height, depth.channels),
+                format!("{}x{}x1 (one depth per pixel)", v.width, v.height),
+            ));
+        }
+        if (w, h) != (v.width, v.height) {
+            return Err(shape_err(
+                &ids_path,
+                format!("{w}x{h}"),
+                format!("{}x{}", v.width, v.height),
+            ));
         }
         all_depths.extend(depth.data.iter().filter(|&&z| z > 0.0).copied());
         gts.push((name.clone(), depth, ids));

@@ -11,9 +11,12 @@ use thiserror::Error;
 /// Errors of camera construction.
 #[derive(Debug, Error, PartialEq)]
 pub enum CameraError {
-    /// The model name or id is not one we support.
+    /// The model name is not one we support.
     #[error("unknown camera model {0:?} (supported: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV)")]
     UnknownModel(String),
+    /// The numeric COLMAP model id is not one we support.
+    #[error("unknown camera model id {0} (expected {ids})", ids = CameraModel::id_list())]
+    UnknownModelId(i32),
     /// The number of parameters does not match the model.
     #[error("camera model {model} takes {expected} parameters, got {got}")]
     ParamCount {
@@ -25,7 +28,7 @@ pub enum CameraError {
         got: usize,
     },
     /// A parameter is NaN, infinite, or a focal length is not positive.
-    #[error("camera parameter {index} ({name}) is invalid: {value}")]
+    #[error("camera parameter {index} ({name}) is {value:?}, expected {expected}")]
     BadParam {
         /// Index into the parameter vector.
         index: usize,
@@ -33,6 +36,23 @@ pub enum CameraError {
         name: &'static str,
         /// The offending value.
         value: f64,
+        /// What the parameter should be.
+        expected: &'static str,
+    },
+    /// The principal point is so far outside the image that no pixel sees what the camera
+    /// looks at: a corrupt value, not a lens ([`Camera::check_usable`]).
+    #[error("principal point ({cx:?}, {cy:?}) is more than {limit} image sizes outside the {width}x{height} image")]
+    PrincipalPoint {
+        /// Principal point x.
+        cx: f64,
+        /// Principal point y.
+        cy: f64,
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+        /// [`MAX_PRINCIPAL_POINT_OUTSIDE`].
+        limit: f64,
     },
     /// Width or height is zero.
     #[error("camera size {width}x{height} is invalid: both must be positive")]
@@ -43,6 +63,13 @@ pub enum CameraError {
         height: u32,
     },
 }
+
+/// How far outside the image (in image widths for x, heights for y) a principal point may
+/// lie before [`Camera::check_usable`] rejects it. Real lenses put it near the image centre;
+/// shift lenses and crops move it by at most about one image size. Ten sizes leaves room for
+/// any crop a user might make, while values like 1e300 (which make every ray miss the scene
+/// and the depth maps all zero) are refused.
+pub const MAX_PRINCIPAL_POINT_OUTSIDE: f64 = 10.0;
 
 /// The COLMAP camera models planemap reads. Ids and parameter orders are COLMAP's.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -86,7 +113,18 @@ impl CameraModel {
         Self::ALL
             .into_iter()
             .find(|m| m.colmap_id() == id)
-            .ok_or_else(|| CameraError::UnknownModel(format!("model id {id}")))
+            .ok_or(CameraError::UnknownModelId(id))
+    }
+
+    /// The supported numeric ids with their names, for messages: `0–4: 0 SIMPLE_PINHOLE, …`.
+    pub fn id_list() -> String {
+        let ids: Vec<String> = Self::ALL
+            .iter()
+            .map(|m| format!("{} {}", m.colmap_id(), m.name()))
+            .collect();
+        let first = Self::ALL[0].colmap_id();
+        let last = Self::ALL[Self::ALL.len() - 1].colmap_id();
+        format!("{first}–{last}: {}", ids.join(", "))
     }
 
     /// COLMAP's model name (as in `cameras.txt`).
@@ -190,8 +228,39 @@ impl Camera {
         for (index, (&value, &name)) in self.params.iter().zip(names).enumerate() {
             let focal = name.starts_with('f');
             if !value.is_finite() || (focal && value <= 0.0) {
-                return Err(CameraError::BadParam { index, name, value });
+                let expected = if focal {
+                    "a positive, finite focal length in pixels"
+                } else {
+                    "a finite number"
+                };
+                return Err(CameraError::BadParam {
+                    index,
+                    name,
+                    value,
+                    expected,
+                });
             }
+        }
+        Ok(())
+    }
+
+    /// [`Camera::validate`] plus what a reconstruction needs beyond a well-formed record: the
+    /// principal point within [`MAX_PRINCIPAL_POINT_OUTSIDE`] image sizes of the image.
+    /// Scene loaders call it; readers do not, so that `planemap info` can still show and
+    /// warn about such a model.
+    pub fn check_usable(&self) -> Result<(), CameraError> {
+        self.validate()?;
+        let (w, h) = (f64::from(self.width), f64::from(self.height));
+        let k = MAX_PRINCIPAL_POINT_OUTSIDE;
+        let inside = |c: f64, size: f64| c >= -k * size && c <= (1.0 + k) * size;
+        if !(inside(self.cx(), w) && inside(self.cy(), h)) {
+            return Err(CameraError::PrincipalPoint {
+                cx: self.cx(),
+                cy: self.cy(),
+                width: self.width,
+                height: self.height,
+                limit: k,
+            });
         }
         Ok(())
     }
@@ -464,7 +533,34 @@ mod tests {
             CameraModel::from_name("FISHEYE"),
             Err(CameraError::UnknownModel(_))
         ));
-        assert!(CameraModel::from_colmap_id(11).is_err());
+        let err = CameraModel::from_colmap_id(99).unwrap_err().to_string();
+        assert_eq!(
+            err,
+            "unknown camera model id 99 (expected 0–4: 0 SIMPLE_PINHOLE, 1 PINHOLE, \
+             2 SIMPLE_RADIAL, 3 RADIAL, 4 OPENCV)"
+        );
+    }
+
+    #[test]
+    fn usable_cameras_have_a_principal_point_near_the_image() {
+        let ok = Camera::new(
+            CameraModel::Pinhole,
+            64,
+            48,
+            vec![50.0, 50.0, -100.0, 200.0],
+        );
+        assert!(ok.unwrap().check_usable().is_ok());
+        for (cx, cy) in [(1e300, 24.0), (32.0, -1e6), (64.0 * 11.5, 24.0)] {
+            let cam = Camera::new(CameraModel::Pinhole, 64, 48, vec![50.0, 50.0, cx, cy]).unwrap();
+            let err = cam.check_usable().unwrap_err();
+            assert!(matches!(err, CameraError::PrincipalPoint { .. }), "{err:?}");
+            assert!(err.to_string().contains("principal point"), "{err}");
+        }
+        // A record that does not validate is not usable either.
+        let mut bad = Camera::pinhole(64, 48, 50.0, 50.0, 32.0, 24.0);
+        bad.params[0] = -1.0;
+        let err = bad.check_usable().unwrap_err().to_string();
+        assert!(err.contains("(fx) is -1.0, expected a positive"), "{err}");
     }
 
     #[test]

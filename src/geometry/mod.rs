@@ -6,22 +6,70 @@
 mod camera;
 mod plane;
 
-pub use camera::{Camera, CameraError, CameraModel};
+pub use camera::{Camera, CameraError, CameraModel, MAX_PRINCIPAL_POINT_OUTSIDE};
 pub use plane::Plane;
 
-use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use thiserror::Error;
 
 /// A rigid transform; used as `cam_from_world` throughout.
 pub type Rigid3 = Isometry3<f64>;
 
-/// `cam_from_world` from COLMAP's quaternion `(qw, qx, qy, qz)` and translation. The quaternion
-/// is stored as given (not renormalised), so that values written back are bit-identical.
-pub fn rigid_from_colmap(qvec: [f64; 4], tvec: [f64; 3]) -> Rigid3 {
-    let q = nalgebra::Quaternion::new(qvec[0], qvec[1], qvec[2], qvec[3]);
-    Isometry3::from_parts(
+/// Largest `|‖q‖ − 1|` of a rotation quaternion that is renormalised rather than rejected.
+///
+/// COLMAP normalises every quaternion it reads (`Image::NormalizeQvec` after parsing), so a
+/// quaternion that lost digits on the way (text written with 6 significant digits is off by
+/// up to ~1e-6; hand-edited files with 4 decimals by ~1e-4) is read as the rotation it meant.
+/// Beyond 1e-3 it is no longer rounding: a zero, scaled or garbled quaternion says the file
+/// is not what it claims, and reading it as some rotation would give wrong depths silently.
+pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
+
+/// Errors of pose construction.
+#[derive(Debug, Error, PartialEq)]
+pub enum PoseError {
+    /// A rotation quaternion is zero, non-finite or too far from unit length.
+    #[error(
+        "quaternion (qw, qx, qy, qz) = ({:?}, {:?}, {:?}, {:?}) has norm {norm:?}, expected a \
+         unit quaternion (norm within {QUATERNION_NORM_TOLERANCE} of 1)",
+        qvec[0], qvec[1], qvec[2], qvec[3]
+    )]
+    NotUnit {
+        /// The quaternion as given.
+        qvec: [f64; 4],
+        /// Its norm.
+        norm: f64,
+    },
+}
+
+/// The norm of COLMAP's `(qw, qx, qy, qz)`.
+pub fn quaternion_norm(qvec: [f64; 4]) -> f64 {
+    Quaternion::new(qvec[0], qvec[1], qvec[2], qvec[3]).norm()
+}
+
+/// The rotation of COLMAP's quaternion `(qw, qx, qy, qz)`, renormalised as COLMAP does when
+/// its norm is within [`QUATERNION_NORM_TOLERANCE`] of 1, an error otherwise (zero, NaN,
+/// scaled). A quaternion that is unit to rounding (`|‖q‖² − 1| ≤ 4ε`) is kept bit for bit, so
+/// that poses written back are identical.
+pub fn colmap_rotation(qvec: [f64; 4]) -> Result<UnitQuaternion<f64>, PoseError> {
+    let q = Quaternion::new(qvec[0], qvec[1], qvec[2], qvec[3]);
+    let norm = q.norm();
+    if !(norm.is_finite() && (norm - 1.0).abs() <= QUATERNION_NORM_TOLERANCE) {
+        return Err(PoseError::NotUnit { qvec, norm });
+    }
+    if (q.norm_squared() - 1.0).abs() <= 4.0 * f64::EPSILON {
+        Ok(UnitQuaternion::new_unchecked(q))
+    } else {
+        Ok(UnitQuaternion::new_normalize(q))
+    }
+}
+
+/// `cam_from_world` from COLMAP's quaternion `(qw, qx, qy, qz)` and translation; the
+/// quaternion is checked and renormalised by [`colmap_rotation`].
+pub fn rigid_from_colmap(qvec: [f64; 4], tvec: [f64; 3]) -> Result<Rigid3, PoseError> {
+    Ok(Isometry3::from_parts(
         Translation3::new(tvec[0], tvec[1], tvec[2]),
-        UnitQuaternion::new_unchecked(q),
-    )
+        colmap_rotation(qvec)?,
+    ))
 }
 
 /// COLMAP's `(qw, qx, qy, qz)` and `(tx, ty, tz)` of a `cam_from_world` transform.
@@ -106,9 +154,32 @@ mod tests {
     fn colmap_pose_round_trip_is_exact() {
         let q = [0.7, 0.1, -0.7, 0.1];
         let t = [1.5, -2.25, 0.125];
-        let (q2, t2) = rigid_to_colmap(&rigid_from_colmap(q, t));
+        let (q2, t2) = rigid_to_colmap(&rigid_from_colmap(q, t).unwrap());
         assert_eq!(q, q2);
         assert_eq!(t, t2);
+    }
+
+    #[test]
+    fn colmap_quaternions_are_renormalised_or_rejected() {
+        // A quarter turn about z, scaled by 1.0005: read as the quarter turn.
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let s = 1.0005;
+        let r = rigid_from_colmap([h * s, 0.0, 0.0, h * s], [0.0; 3]).unwrap();
+        let x = r * Point3::new(1.0, 0.0, 0.0);
+        assert!(
+            (x.coords - Vector3::new(0.0, 1.0, 0.0)).norm() < 1e-12,
+            "{x}"
+        );
+        // Zero, NaN and scaled quaternions are errors naming the values and the norm.
+        for q in [[0.0; 4], [f64::NAN, 0.0, 0.0, 0.0], [2.0, 0.0, 0.0, 0.0]] {
+            let err = rigid_from_colmap(q, [0.0; 3]).unwrap_err();
+            assert!(
+                err.to_string().contains("expected a unit quaternion"),
+                "{err}"
+            );
+        }
+        assert!(rigid_from_colmap([1.002, 0.0, 0.0, 0.0], [0.0; 3]).is_err());
+        assert!(rigid_from_colmap([1.0009, 0.0, 0.0, 0.0], [0.0; 3]).is_ok());
     }
 
     #[test]

@@ -5,15 +5,20 @@
 use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
-/// The temporary name `path` is written under before the rename: `<name>.tmp-<pid>` in the
-/// same directory (same file system, so the rename is atomic on POSIX).
+/// The temporary name `path` is written under before the rename:
+/// `<name>.tmp-<pid>-<n>` in the same directory (same file system, so the rename is atomic on
+/// POSIX), with `n` unique within the process, so that two writes of the same file at once
+/// (two threads, or two processes) never share a temporary file.
 pub fn temp_path(path: &Path) -> PathBuf {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
     let mut name = path
         .file_name()
         .map(|n| n.to_os_string())
         .unwrap_or_default();
-    name.push(format!(".tmp-{}", std::process::id()));
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    name.push(format!(".tmp-{}-{n}", std::process::id()));
     path.with_file_name(name)
 }
 
@@ -57,8 +62,11 @@ mod tests {
         fs::write(&path, b"old contents")?;
         write_atomic(&path, |w: &mut BufWriter<File>| w.write_all(b"new"))?;
         assert_eq!(fs::read(&path)?, b"new");
-        assert!(!temp_path(&path).exists());
-        assert_eq!(fs::read_dir(dir.path())?.count(), 1);
+        assert_eq!(
+            fs::read_dir(dir.path())?.count(),
+            1,
+            "no temporary file left"
+        );
         Ok(())
     }
 
@@ -73,7 +81,11 @@ mod tests {
         });
         assert_eq!(result.unwrap_err().to_string(), "writer failed");
         assert_eq!(fs::read(&path)?, b"keep me");
-        assert!(!temp_path(&path).exists());
+        assert_eq!(
+            fs::read_dir(dir.path())?.count(),
+            1,
+            "no temporary file left"
+        );
         Ok(())
     }
 
@@ -82,6 +94,51 @@ mod tests {
         let tmp = temp_path(Path::new("/a/b/depth.pfm"));
         assert_eq!(tmp.parent(), Some(Path::new("/a/b")));
         let name = tmp.file_name().unwrap().to_string_lossy().into_owned();
-        assert_eq!(name, format!("depth.pfm.tmp-{}", std::process::id()));
+        assert!(
+            name.starts_with(&format!("depth.pfm.tmp-{}-", std::process::id())),
+            "{name}"
+        );
+        assert_ne!(
+            temp_path(Path::new("/a/b/depth.pfm")),
+            tmp,
+            "unique per write"
+        );
+    }
+
+    #[test]
+    fn concurrent_writes_of_one_file_do_not_collide() -> io::Result<()> {
+        // `--views 0,0,0` once labelled a view three times at once, and the writes shared
+        // one temporary file.
+        let dir = tempfile::tempdir()?;
+        let path = dir.path().join("same.bin");
+        std::thread::scope(|s| {
+            let handles: Vec<_> = (0..8u8)
+                .map(|k| {
+                    let path = &path;
+                    s.spawn(move || {
+                        for _ in 0..50 {
+                            write_atomic(path, |w: &mut BufWriter<File>| w.write_all(&[k; 4096]))?;
+                        }
+                        Ok::<(), io::Error>(())
+                    })
+                })
+                .collect();
+            for h in handles {
+                h.join().expect("writer thread")?;
+            }
+            Ok::<(), io::Error>(())
+        })?;
+        let bytes = fs::read(&path)?;
+        assert_eq!(bytes.len(), 4096);
+        assert!(
+            bytes.iter().all(|&b| b == bytes[0]),
+            "one writer's content, whole"
+        );
+        assert_eq!(
+            fs::read_dir(dir.path())?.count(),
+            1,
+            "no temporary file left"
+        );
+        Ok(())
     }
 }

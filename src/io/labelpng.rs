@@ -8,11 +8,12 @@ use std::fs::File;
 use std::io::{self, BufWriter, Cursor, Read, Write};
 use std::path::Path;
 
-use image::codecs::png::PngEncoder;
-use image::{DynamicImage, ImageBuffer, ImageFormat, ImageReader, Luma, Rgb, RgbImage};
+use image::codecs::png::{PngDecoder, PngEncoder};
+use image::{DynamicImage, ImageBuffer, ImageDecoder, Luma, Rgb, RgbImage};
 use thiserror::Error;
 
 use crate::io::atomic::write_atomic;
+use crate::raster::{png_can_hold, png_min_inflated_bytes, DEFLATE_MAX_RATIO};
 
 const STREAM: &str = "<stream>";
 
@@ -123,6 +124,8 @@ pub fn write_label_png(
 
 /// Reads a label PNG from a stream. 16-bit greyscale is read as is; 8-bit greyscale is
 /// widened (labels 0..=255). Any other colour type (RGB, alpha, …) is an error naming it.
+/// A header declaring more pixels than the file's bytes could inflate to is an error before
+/// anything of that size is allocated.
 pub fn read_label_png_from<R: Read>(mut r: R) -> Result<LabelMap, LabelPngError> {
     let mut bytes = Vec::new();
     r.read_to_end(&mut bytes)?;
@@ -130,9 +133,23 @@ pub fn read_label_png_from<R: Read>(mut r: R) -> Result<LabelMap, LabelPngError>
         file: STREAM.into(),
         message: e.to_string(),
     };
-    let img = ImageReader::with_format(Cursor::new(bytes), ImageFormat::Png)
-        .decode()
-        .map_err(png)?;
+    let file_len = bytes.len() as u64;
+    let decoder = PngDecoder::new(Cursor::new(bytes)).map_err(png)?;
+    let (width, height) = decoder.dimensions();
+    let bits = decoder.original_color_type().bits_per_pixel();
+    if !png_can_hold(width, height, bits, file_len) {
+        return Err(LabelPngError::Invalid {
+            file: STREAM.into(),
+            message: format!(
+                "header declares {width}x{height} pixels of {bits} bits ({} bytes once \
+                 inflated), but the file's {file_len} bytes inflate to at most {}: truncated \
+                 or corrupt",
+                png_min_inflated_bytes(width, height, bits),
+                file_len.saturating_mul(DEFLATE_MAX_RATIO)
+            ),
+        });
+    }
+    let img = DynamicImage::from_decoder(decoder).map_err(png)?;
     let (width, height) = (img.width(), img.height());
     let labels = match img {
         DynamicImage::ImageLuma16(buf) => buf.into_raw(),
@@ -263,5 +280,38 @@ mod tests {
         assert_eq!(img.get_pixel(1, 0), img.get_pixel(0, 1));
         assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
         assert_eq!(img.get_pixel(1, 1).0, label_color(9));
+    }
+
+    #[test]
+    fn a_header_larger_than_the_file_could_hold_is_refused_before_decoding() {
+        // Found by the label_png fuzzer: 95 bytes declaring 4 x 33554433 16-bit pixels made
+        // the decoder allocate 268 MB.
+        let mut png = Vec::new();
+        write_label_png_to(&mut png, 4, 1, &[1, 2, 3, 4]).unwrap();
+        // IHDR height (bytes 20..24) and its CRC (bytes 29..33).
+        png[20..24].copy_from_slice(&33_554_433u32.to_be_bytes());
+        let crc = crc32(&png[12..29]);
+        png[29..33].copy_from_slice(&crc.to_be_bytes());
+        let err = read_label_png_from(&png[..]).unwrap_err().to_string();
+        assert!(
+            err.contains("header declares 4x33554433 pixels of 16 bits")
+                && err.contains("truncated or corrupt"),
+            "{err}"
+        );
+    }
+
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in bytes {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 == 1 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
     }
 }

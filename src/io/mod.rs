@@ -11,4 +11,4 @@ pub mod pfm;
 pub mod ply;
 pub mod pmvs;
 
-pub use names::output_stem;
+pub use names::{check_image_names, output_stem, NameError};

@@ -260,6 +260,15 @@ pub fn read_patches<R: Read>(r: R) -> Result<Vec<Patch>, PmvsError> {
             ));
         }
         let position = Vector3::new(p[0] / p[3], p[1] / p[3], p[2] / p[3]);
+        if !position.iter().all(|v| v.is_finite()) {
+            return Err(format_err(
+                pos_line,
+                format!(
+                    "expected a finite position, found ({:?}, {:?}, {:?}) / w = {:?} (overflows)",
+                    p[0], p[1], p[2], p[3]
+                ),
+            ));
+        }
         let mut n4 = [0f64; 4];
         let mut nrm_line = pos_line;
         for v in n4.iter_mut() {
@@ -272,7 +281,10 @@ pub fn read_patches<R: Read>(r: R) -> Result<Vec<Patch>, PmvsError> {
         if !(norm > 0.0 && norm.is_finite()) {
             return Err(format_err(
                 nrm_line,
-                "expected a non-zero normal, found (0, 0, 0)",
+                format!(
+                    "expected a non-zero normal of finite length, found ({:?}, {:?}, {:?})",
+                    n4[0], n4[1], n4[2]
+                ),
             ));
         }
         let (_, score) = t.float("the patch score")?;
@@ -438,6 +450,9 @@ pub fn camera_from_projection(
         vec![fx, fy, cx, cy],
     )
     .map_err(|e| camera_err(format!("invalid camera from projection matrix: {e}")))?;
+    camera
+        .check_usable()
+        .map_err(|e| camera_err(format!("unusable camera from projection matrix: {e}")))?;
     let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rot));
     let cam_from_world = Rigid3::from_parts(Translation3::from(t), rotation);
     Ok((camera, cam_from_world))
@@ -791,6 +806,17 @@ mod tests {
     }
 
     #[test]
+    fn absurd_principal_point_is_rejected() {
+        // A principal point 12 image widths away: the scene loader refuses the camera.
+        let camera = Camera::pinhole(640, 480, 500.0, 500.0, 8000.0, 240.0);
+        let p = projection_from_camera(&camera, &Rigid3::identity()).unwrap();
+        let err = camera_from_projection(&p, 640, 480)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("principal point"), "{err}");
+    }
+
+    #[test]
     fn patches_round_trip_and_patcha_is_read() -> Result<(), PmvsError> {
         let text = "PATCHES\n2\nPATCHS\n1 2 3 1\n0 0 2 0\n0.9 0.1 0.2\n2\n4 1 \n1\n7 \n\n\
                     PATCHA\n2 4 6 2\n1 0 0 0\n0.5 0 0\n3 1 0 0 1\n1\n3\n0\n\n";
@@ -820,6 +846,23 @@ mod tests {
             .to_string();
         assert!(
             err.contains("line 4") && err.contains("ends early"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn overflowing_patch_values_are_rejected() {
+        // x / w overflows to infinity: a named error, not a non-finite point in the scene.
+        let text = "PATCHES\n1\nPATCHS\n1e300 2 3 1e-300\n0 0 1 0\n0.9 0 0\n0\n\n0\n\n";
+        let err = read_patches(text.as_bytes()).unwrap_err().to_string();
+        assert!(
+            err.contains("line 4") && err.contains("finite position"),
+            "{err}"
+        );
+        let text = "PATCHES\n1\nPATCHS\n1 2 3 1\n1e300 1e300 0 0\n0.9 0 0\n0\n\n0\n\n";
+        let err = read_patches(text.as_bytes()).unwrap_err().to_string();
+        assert!(
+            err.contains("line 5") && err.contains("finite length"),
             "{err}"
         );
     }

@@ -19,11 +19,16 @@ pub struct SolverConfig {
     /// label), a count; the solve stops earlier once a cycle changes nothing. A bound, not
     /// a tuned value: the 640×480 room converges in 2.
     pub max_cycles: usize,
-    /// Integer cost units per unit of real cost (data-cost units), > 0: costs are rounded
-    /// to integers so that the max-flow is exact, and this scale keeps the rounding below
-    /// 0.1 % of the smallest useful cost.
+    /// Integer cost units per unit of real cost (data-cost units), in (0, 10⁶]: costs are
+    /// rounded to integers so that the max-flow is exact, and this scale keeps the rounding
+    /// below 0.1 % of the smallest useful cost. The solver's capacities are 32-bit: above
+    /// 10⁶ a pixel's summed costs (tens of units) would saturate them.
     pub cost_scale: f64,
 }
+
+/// The largest `solver.cost_scale`: costs of tens of units per pixel then stay far below the
+/// solver's 32-bit capacities.
+pub const MAX_COST_SCALE: f64 = 1e6;
 
 impl Default for SolverConfig {
     fn default() -> Self {
@@ -114,10 +119,12 @@ impl Config {
         self.nonplanar
             .validate()
             .map_err(|e| PipelineError::Config(e.to_string()))?;
-        if !(self.solver.cost_scale.is_finite() && self.solver.cost_scale > 0.0) {
-            return Err(PipelineError::Config(
-                "solver.cost_scale must be positive".into(),
-            ));
+        let scale = self.solver.cost_scale;
+        if !(scale.is_finite() && scale > 0.0 && scale <= MAX_COST_SCALE) {
+            return Err(PipelineError::Config(format!(
+                "solver.cost_scale = {scale:e} must be in (0, {MAX_COST_SCALE}] (integer cost \
+                 units per unit of cost; larger ones overflow the solver's 32-bit capacities)"
+            )));
         }
         let tolerance_ok =
             self.fusion.depth_tolerance.is_finite() && self.fusion.depth_tolerance > 0.0;

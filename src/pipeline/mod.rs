@@ -17,6 +17,7 @@ pub mod creases;
 pub mod fuse;
 pub mod label;
 pub mod outputs;
+pub mod resume;
 pub mod stages;
 
 pub use config::{Config, FusionConfig, SolverConfig};
@@ -24,7 +25,7 @@ pub use creases::read_crease_hypotheses;
 pub use fuse::fuse;
 pub use label::{confirm_nonplanar, label_view, view_energy, ViewPlanemap};
 pub use outputs::{write_view_outputs, PlaneRecord, NONPLANAR_COLOR, SWEEP_DIR};
-pub use stages::{prepare, sparse_stages, Prepared, SparseStages};
+pub use stages::{prepare, prepare_with_progress, sparse_stages, Prepared, SparseStages};
 
 use creases::{crease_pass, write_crease_hypotheses, CREASES_FILE};
 use outputs::{load_view_outputs, write_planes_json};
@@ -181,6 +182,56 @@ pub struct ViewSummary {
     pub resumed: bool,
 }
 
+/// Writes `out/config.toml`: the configuration the run used, every key spelled out with its
+/// documentation; `--config` reads it back.
+fn write_config(out: &Path, cfg: &Config) -> Result<(), PipelineError> {
+    let path = out.join("config.toml");
+    let text = cfg.describe()?;
+    write_atomic::<std::io::Error, _>(&path, |f: &mut BufWriter<File>| {
+        std::io::Write::write_all(f, text.as_bytes())
+    })
+    .map_err(|e| write_err(&path, e))
+}
+
+/// Writes `scene` (undistorted) as a COLMAP model into `dir`: binary, as `stereo_fusion`
+/// reads it, and `cameras.txt` for people.
+fn write_undistorted_model(scene: &Scene, dir: &Path) -> Result<(), PipelineError> {
+    use crate::io::colmap::{write_cameras_text, write_model_bin, ColmapModel};
+    // Observations are the points projected into the undistorted cameras; a track entry
+    // whose point is behind its camera (possible in a user's model) has no 2D position and
+    // is left out of the written model rather than failing the run.
+    let mut kept = scene.clone();
+    let mut dropped = 0usize;
+    for (track, p) in kept.cloud.tracks.iter_mut().zip(&scene.cloud.positions) {
+        let before = track.len();
+        track.retain(|&v| scene.views[v as usize].project(p).is_some());
+        dropped += before - track.len();
+    }
+    if dropped > 0 {
+        tracing::warn!(
+            "{}: {dropped} observations of points behind their camera left out",
+            dir.display()
+        );
+    }
+    let model = ColmapModel::from_scene(&kept, None).map_err(|e| write_err(dir, e))?;
+    write_model_bin(dir, &model).map_err(|e| write_err(dir, e))?;
+    let path = dir.join("cameras.txt");
+    write_atomic::<std::io::Error, _>(&path, |f: &mut BufWriter<File>| {
+        write_cameras_text(f, &model.cameras).map_err(std::io::Error::other)
+    })
+    .map_err(|e| write_err(&path, e))
+}
+
+/// Creates `out` and checks that a file can be written there, so that a read-only or
+/// mistyped output folder fails at once rather than after the global stages.
+fn check_writable(out: &Path) -> Result<(), PipelineError> {
+    std::fs::create_dir_all(out).map_err(|e| write_err(out, e))?;
+    let probe = crate::io::atomic::temp_path(&out.join(".planemap-write-check"));
+    std::fs::write(&probe, b"").map_err(|e| write_err(out, e))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// Runs the whole chain on a scene and writes into `out`:
 ///
 /// ```text
@@ -194,6 +245,9 @@ pub struct ViewSummary {
 /// out/fused.ply                back-projected, cross-view consistent points
 /// out/summary.json             this summary
 /// out/config.toml              the effective configuration (every key, with its doc)
+/// out/fingerprint.json         hashes of the inputs and the configuration (for --resume)
+/// out/planemaps/NAME.fingerprint   what a view's outputs were made from (for --resume)
+/// out/sparse/                  the model in the undistorted cameras the outputs are in
 /// ```
 pub fn run(
     scene: &Scene,
@@ -202,30 +256,39 @@ pub fn run(
     opts: &RunOptions,
     progress: &Progress,
 ) -> Result<(Prepared, Vec<ViewPlanemap>, RunSummary), PipelineError> {
+    // Everything cheap is checked before the global stages, which take minutes.
     cfg.validate()?;
-    let scene = scene.undistorted();
-    let bar = progress.bar(3, "sparse stages");
-    let prepared = prepare(&scene, cfg)?;
-    bar.inc(3);
-    bar.finish();
-    progress.println(&format!(
-        "R = {:.4}, {} dominant directions, {} plane hypotheses",
-        prepared.scale,
-        prepared.axes.directions.len(),
-        prepared.hypotheses.len()
-    ));
+    crate::io::check_image_names(scene.views.iter().map(|v| v.name.as_str()))
+        .map_err(|e| PipelineError::Scene(e.to_string()))?;
     let indices: Vec<usize> = match &opts.views {
         Some(v) => {
             if let Some(&bad) = v.iter().find(|&&i| i >= scene.views.len()) {
                 return Err(PipelineError::Scene(format!(
-                    "view index {bad} out of range (the scene has {} views)",
+                    "view index {bad} out of range (the scene has {} views, 0..{})",
+                    scene.views.len(),
                     scene.views.len()
                 )));
             }
-            v.clone()
+            // Each view once, in the order given: a view listed twice would be labelled
+            // twice at once, its files written by two threads.
+            let mut seen = std::collections::BTreeSet::new();
+            v.iter().copied().filter(|i| seen.insert(*i)).collect()
         }
         None => (0..scene.views.len()).collect(),
     };
+    check_writable(out)?;
+    // The fingerprint goes first: whatever a run leaves in `out` is tagged with it, and
+    // `--resume` refuses a folder made from other inputs or another configuration.
+    let mut fingerprint = resume::Fingerprint::of(scene, cfg)?;
+    let previous = if opts.resume {
+        Some(fingerprint.check_resumable(out, cfg)?)
+    } else {
+        fingerprint.write(out)?;
+        write_config(out, cfg)?;
+        None
+    };
+    let scene = scene.undistorted();
+    let prepared = prepare_with_progress(&scene, cfg, progress)?;
     let t = Instant::now();
     let mut prepared = prepared;
     // With crease hypotheses: a first labelling of every view (nothing written), the
@@ -234,10 +297,21 @@ pub fn run(
     let mut first: Option<Vec<ViewPlanemap>> = None;
     if cfg.hypotheses.creases.enabled {
         let saved_path = out.join(CREASES_FILE);
-        let saved = if opts.resume {
-            read_crease_hypotheses(&saved_path, &scene, prepared.hypotheses.len())
-        } else {
-            None
+        let voters: Vec<String> = indices
+            .iter()
+            .map(|&i| scene.views[i].name.clone())
+            .collect();
+        // Reloaded only when the same views voted them.
+        let saved = match &previous {
+            Some(p) if p.crease_voters.as_ref() == Some(&voters) => {
+                read_crease_hypotheses(&saved_path, &scene, prepared.hypotheses.len())
+            }
+            Some(_) => {
+                progress
+                    .println("the saved crease hypotheses were voted by other views: voting again");
+                None
+            }
+            None => None,
         };
         let extra = match saved {
             Some(extra) => {
@@ -251,6 +325,8 @@ pub fn run(
             None => {
                 let (extra, pass) = crease_pass(&scene, &prepared, &indices, cfg, progress)?;
                 write_crease_hypotheses(&saved_path, &scene, &extra)?;
+                fingerprint.crease_voters = Some(voters);
+                fingerprint.write(out)?;
                 progress.println(&format!(
                     "{} crease hypotheses from the first labelling",
                     extra.len()
@@ -264,6 +340,9 @@ pub fn run(
         prepared.add_crease_hypotheses(extra);
     }
     let prepared = prepared;
+    // What every view's outputs are made from; `--resume` reloads a view only if its own
+    // key matches.
+    let view_key = fingerprint.view_key(&resume::hypotheses_key(&prepared.hypotheses));
     let bar = progress.bar(indices.len() as u64, "planemaps");
     let results: Vec<Result<(ViewPlanemap, bool), PipelineError>> = indices
         .par_iter()
@@ -271,11 +350,12 @@ pub fn run(
         .map(|(k, &i)| {
             let view = &scene.views[i];
             if let Some(done) = first.as_ref().map(|f| &f[k]) {
+                resume::write_view_key(out, &view.name, &view_key)?;
                 write_view_outputs(out, &scene, done)?;
                 bar.inc(1);
                 return Ok((done.clone(), false));
             }
-            if opts.resume {
+            if opts.resume && resume::view_key_matches(out, &view.name, &view_key) {
                 let need_sweep = prepared.classifier.is_some();
                 if let Some(done) = load_view_outputs(out, &scene, &prepared, i, need_sweep) {
                     bar.inc(1);
@@ -284,6 +364,7 @@ pub fn run(
             }
             let image = view.load_undistorted_image()?;
             let result = label_view(&scene, &prepared, i, &image, cfg)?;
+            resume::write_view_key(out, &view.name, &view_key)?;
             write_view_outputs(out, &scene, &result)?;
             bar.inc(1);
             Ok((result, false))
@@ -372,13 +453,10 @@ pub fn run(
         std::io::Write::write_all(f, json.as_bytes())
     })
     .map_err(|e| write_err(&path, e))?;
-    // The configuration the run used, every key spelled out: `--config` reads it back.
-    let path = out.join("config.toml");
-    let text = cfg.describe()?;
-    write_atomic::<std::io::Error, _>(&path, |f: &mut BufWriter<File>| {
-        std::io::Write::write_all(f, text.as_bytes())
-    })
-    .map_err(|e| write_err(&path, e))?;
+    // The model in the cameras the outputs are in: distorted cameras were undistorted on
+    // load into pinhole ones of the same size, as COLMAP's image_undistorter does, and
+    // `stereo_fusion` needs this model beside stereo/.
+    write_undistorted_model(&scene, &out.join("sparse"))?;
     Ok((prepared, views, summary))
 }
 

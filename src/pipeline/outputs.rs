@@ -18,15 +18,34 @@ use crate::raster::ImageF32;
 use crate::scene::Scene;
 
 /// `OUT/stereo/KIND/IMAGE.geometric.bin` (KIND `depth_maps` or `normal_maps`), IMAGE the
-/// view's image file name, as COLMAP's `stereo_fusion` reads them.
+/// view's COLMAP image name, subfolders included, as COLMAP's `stereo_fusion` reads them.
 pub(super) fn dense_map_path(out: &Path, kind: &str, view_name: &str) -> PathBuf {
-    let name = Path::new(view_name)
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| view_name.to_string());
     out.join("stereo")
         .join(kind)
-        .join(format!("{name}.geometric.bin"))
+        .join(format!("{view_name}.geometric.bin"))
+}
+
+/// `OUT/DIR/STEM.EXT` for a view ([`output_stem`]: the image name without its extension,
+/// subfolders kept), creating the folders it needs.
+pub(super) fn view_file(
+    out: &Path,
+    dir: &str,
+    view_name: &str,
+    suffix: &str,
+) -> Result<PathBuf, PipelineError> {
+    let path = out
+        .join(dir)
+        .join(format!("{}{suffix}", output_stem(view_name)));
+    ensure_parent(&path)?;
+    Ok(path)
+}
+
+/// Creates the folder `path` goes into.
+fn ensure_parent(path: &Path) -> Result<(), PipelineError> {
+    match path.parent() {
+        Some(dir) => std::fs::create_dir_all(dir).map_err(|e| write_err(dir, e)),
+        None => Ok(()),
+    }
 }
 
 /// Where the non-planar label's sweep depth maps go (PFM, camera z, 0 = none).
@@ -47,7 +66,6 @@ pub fn write_view_outputs(
     result: &ViewPlanemap,
 ) -> Result<(), PipelineError> {
     let view = &scene.views[result.view_index];
-    let stem = output_stem(&view.name);
     let (w, h) = (result.width, result.height);
     for d in OUTPUT_DIRS {
         let dir = out.join(d);
@@ -65,7 +83,7 @@ pub fn write_view_outputs(
             }
         })
         .collect();
-    let vis_path = out.join("planemaps").join(format!("{stem}_vis.png"));
+    let vis_path = view_file(out, "planemaps", &view.name, "_vis.png")?;
     let mut vis = label_colors(&ids, w, h);
     // Non-planar pixels (label 0 but a depth) in one fixed colour, unlike "no plane" (black).
     for (i, (&l, &z)) in result.labels.iter().zip(&result.depth).enumerate() {
@@ -74,9 +92,7 @@ pub fn write_view_outputs(
         }
     }
     if let Some(map) = &result.planarity {
-        let dir = out.join("planarity");
-        std::fs::create_dir_all(&dir).map_err(|e| write_err(&dir, e))?;
-        let path = dir.join(format!("{stem}.png"));
+        let path = view_file(out, "planarity", &view.name, ".png")?;
         map.write_png(&path).map_err(|e| write_err(&path, e))?;
     }
     write_atomic::<std::io::Error, _>(&vis_path, |f: &mut BufWriter<File>| {
@@ -90,29 +106,31 @@ pub fn write_view_outputs(
         channels: 1,
         data: result.depth.clone(),
     };
-    write_pfm_path(&out.join("depth").join(format!("{stem}.pfm")), &depth)?;
+    write_pfm_path(&view_file(out, "depth", &view.name, ".pfm")?, &depth)?;
     if let Some(sweep) = &result.sweep_depth {
-        let dir = out.join(SWEEP_DIR);
-        std::fs::create_dir_all(&dir).map_err(|e| write_err(&dir, e))?;
         let map = ImageF32 {
             width: w,
             height: h,
             channels: 1,
             data: sweep.clone(),
         };
-        write_pfm_path(&dir.join(format!("{stem}.pfm")), &map)?;
+        write_pfm_path(&view_file(out, SWEEP_DIR, &view.name, ".pfm")?, &map)?;
     }
-    write_dense_map_path(&dense_map_path(out, "depth_maps", &view.name), &depth)?;
+    let dense_depth = dense_map_path(out, "depth_maps", &view.name);
+    ensure_parent(&dense_depth)?;
+    write_dense_map_path(&dense_depth, &depth)?;
     let normals = ImageF32 {
         width: w,
         height: h,
         channels: 3,
         data: result.normals.iter().flatten().copied().collect(),
     };
-    write_dense_map_path(&dense_map_path(out, "normal_maps", &view.name), &normals)?;
+    let dense_normals = dense_map_path(out, "normal_maps", &view.name);
+    ensure_parent(&dense_normals)?;
+    write_dense_map_path(&dense_normals, &normals)?;
     // The label map last: its presence marks the view complete for --resume.
     write_label_png(
-        &out.join("planemaps").join(format!("{stem}.png")),
+        &view_file(out, "planemaps", &view.name, ".png")?,
         w,
         h,
         &ids,

@@ -13,6 +13,7 @@ use crate::hypotheses::{
 };
 use crate::nonplanar::NonplanarView;
 use crate::normals::{estimate_normals_with_scale, OrientedCloud};
+use crate::progress::Progress;
 use crate::raster::ImageF32;
 use crate::scale::sampling_scale;
 use crate::scene::Scene;
@@ -159,6 +160,17 @@ pub fn sparse_stages(scene: &Scene, cfg: &Config) -> Result<SparseStages, Pipeli
 
 /// Runs the global stages on an (undistorted) scene.
 pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
+    prepare_with_progress(scene, cfg, &Progress::hidden())
+}
+
+/// [`prepare`], reporting each global stage as it ends: the sparse-point stages, the images,
+/// the photo-consistency sweep (the long one) and the classifier.
+pub fn prepare_with_progress(
+    scene: &Scene,
+    cfg: &Config,
+    progress: &Progress,
+) -> Result<Prepared, PipelineError> {
+    let bar = progress.bar(4, "global stages");
     let SparseStages {
         scale,
         oriented,
@@ -166,6 +178,12 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
         mut hypotheses,
         seconds,
     } = sparse_stages(scene, cfg)?;
+    progress.println(&format!(
+        "R = {scale:.4}, {} dominant directions, {} plane hypotheses from the points",
+        axes.directions.len(),
+        hypotheses.len()
+    ));
+    bar.inc(1);
     let t = Instant::now();
     let input = hyp_input(scene, &oriented, &axes, scale);
     // Images are loaded once for all views when a stage matches views against each other.
@@ -182,12 +200,19 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
     } else {
         None
     };
+    bar.inc(1);
     let mut num_sweep = 0;
     if let (true, Some(imgs)) = (cfg.hypotheses.sweep.enabled, &images) {
+        let t = Instant::now();
         let (extra, _) = sweep_hypotheses(scene, imgs, &input, &hypotheses, &cfg.hypotheses)?;
         num_sweep = extra.len();
         hypotheses.extend(extra);
+        progress.println(&format!(
+            "{num_sweep} more plane hypotheses from the photo-consistency sweep ({:.1} s)",
+            t.elapsed().as_secs_f64()
+        ));
     }
+    bar.inc(1);
     if hypotheses.is_empty() {
         return Err(PipelineError::Scene(format!(
             "no plane hypothesis has enough support ({} points, {} dominant directions)",
@@ -209,6 +234,8 @@ pub fn prepare(scene: &Scene, cfg: &Config) -> Result<Prepared, PipelineError> {
     } else {
         None
     };
+    bar.inc(1);
+    bar.finish();
     let nonplanar_sweeps = match classifier {
         Some(_) => (0..scene.views.len())
             .map(|_| std::sync::OnceLock::new())

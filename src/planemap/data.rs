@@ -223,6 +223,12 @@ pub fn data_costs(
     }
     drop(per_label);
 
+    // The vertical bound: (v in the camera frame, v · camera centre, lowest, highest).
+    let vertical = if config.vertical_extent {
+        vertical_extent(inputs, config.vertical_extent_margin)
+    } else {
+        None
+    };
     let r = config.splat_radius as usize;
     let planes_flat: Vec<[f64; 4]> = planes_cam
         .iter()
@@ -246,15 +252,68 @@ pub fn data_costs(
             let ry = (y as f64 + 0.5 - pinhole.cy) / pinhole.fy;
             for (x, px) in row.chunks_exact_mut(num_labels).enumerate() {
                 let rx = (x as f64 + 0.5 - pinhole.cx) / pinhole.fx;
+                // Height gained per unit of depth along this pixel's ray.
+                let rise = vertical.map(|(v, ..)| v.x * rx + v.y * ry + v.z);
                 for (c, &[nx, ny, nz, d]) in px.iter_mut().zip(&planes_flat) {
                     let denom = nx * rx + ny * ry + nz;
                     let z = d / denom;
-                    let valid = denom.abs() > 1e-12 && z.is_finite() && z > 0.0;
+                    let mut valid = denom.abs() > 1e-12 && z.is_finite() && z > 0.0;
+                    if let (Some(rise), Some((_, base, lo, hi))) = (rise, vertical) {
+                        let height = base + z * rise;
+                        valid &= height >= lo && height <= hi;
+                    }
                     *c = if valid { c.min(trunc) } else { trunc };
                 }
             }
         });
     Ok(costs)
+}
+
+/// The scene's vertical extent for [`PlanemapConfig::vertical_extent`]: the vertical `v`
+/// in the target camera's frame, `v · c` for its centre `c`, and the lowest and highest
+/// allowed `v · X` (the sparse points' and camera centres' range, widened by `margin` of
+/// it on each side). `None` when no dominant direction lies within 25° of the cameras'
+/// mean "up" (their image −y axes), or the range is empty.
+fn vertical_extent(inputs: &ViewInputs, margin: f64) -> Option<(Vector3<f64>, f64, f64, f64)> {
+    let up: Vector3<f64> = inputs
+        .views
+        .iter()
+        .map(|v| {
+            -v.cam_from_world
+                .rotation
+                .inverse_transform_vector(&Vector3::y())
+        })
+        .sum();
+    let up = up.try_normalize(1e-12)?;
+    let (v, cos) = inputs
+        .dominant_directions
+        .iter()
+        .filter_map(|d| d.try_normalize(1e-12))
+        .map(|d| {
+            let c = d.dot(&up);
+            (if c < 0.0 { -d } else { d }, c.abs())
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    if cos < 25f64.to_radians().cos() {
+        return None;
+    }
+    let heights = inputs
+        .cloud
+        .positions
+        .iter()
+        .copied()
+        .chain(inputs.views.iter().map(|w| w.center()))
+        .map(|p| v.dot(&p));
+    let (lo, hi) = heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), h| {
+        (lo.min(h), hi.max(h))
+    });
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let pad = margin * (hi - lo);
+    let view = inputs.view();
+    let v_cam = view.cam_from_world.rotation * v;
+    Some((v_cam, v.dot(&view.center()), lo - pad, hi + pad))
 }
 
 #[cfg(test)]
@@ -532,6 +591,60 @@ mod tests {
         // y = 1 is in front only for rays pointing down (image y > cy = 50).
         assert_eq!(c[(10 * 100 + 50) * 5 + 2], trunc);
         assert!(c[(90 * 100 + 50) * 5 + 2] < trunc);
+    }
+
+    /// Camera at eye height looking along a room (+z, image "up" = world −y): floor points
+    /// 1.6 below, ceiling points 1.4 above. Low in the image, a far wall (z = 20) would be
+    /// met 10 below the floor: free of conflicts, but out of the scene's vertical extent.
+    #[test]
+    fn vertical_extent_rules_out_a_wall_continued_below_the_floor() {
+        let line = line_setup(Vector3::new(2.0, 0.0, 0.0));
+        let planes = vec![
+            Plane::new(Vector3::z(), 20.0), // the far wall
+            Plane::new(Vector3::y(), 1.6),  // the floor (y points down)
+        ];
+        let mut cloud = one_point(vec![0, 1], 0.9);
+        for (y, z) in [(1.6, 3.0), (1.6, 4.0), (-1.4, 3.0), (-1.4, 4.0)] {
+            cloud.positions.push(Vector3::new(0.3, y, z));
+            cloud.colors.push([0; 3]);
+            cloud.tracks.push(vec![1]);
+            cloud.errors.push(0.0);
+            cloud.confidence.push(0.9);
+        }
+        let directions = [Vector3::x(), Vector3::y(), Vector3::z()];
+        let inputs = ViewInputs {
+            photo_planes: &[],
+            view_index: 0,
+            views: &line.views,
+            image: &line.image,
+            cloud: &cloud,
+            planes: &planes,
+            dominant_directions: &directions,
+            scale: 0.01,
+        };
+        let labels = [0u32, 1];
+        let trunc = PlanemapConfig::default().data_truncation as f32;
+        let bottom = (99 * 100 + 50) * 2; // ray 0.49 down per unit depth
+        let centre = (50 * 100 + 50) * 2;
+        let off = data_costs(&inputs, &labels, &PlanemapConfig::default()).unwrap();
+        assert!(
+            off[bottom] < trunc,
+            "without the bound the wall is free there"
+        );
+        let on = PlanemapConfig {
+            vertical_extent: true,
+            ..PlanemapConfig::default()
+        };
+        let c = data_costs(&inputs, &labels, &on).unwrap();
+        assert_eq!(c[bottom], trunc, "wall met 9.8 below the floor");
+        assert!(c[bottom + 1] < trunc, "the floor itself is inside");
+        assert_eq!(c[centre], off[centre], "the wall at eye height is inside");
+        // A margin as tall as the scene takes the wall back in.
+        let wide = PlanemapConfig {
+            vertical_extent_margin: 4.0,
+            ..on
+        };
+        assert!(data_costs(&inputs, &labels, &wide).unwrap()[bottom] < trunc);
     }
 
     #[test]

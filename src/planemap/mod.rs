@@ -140,6 +140,17 @@ pub struct PlanemapConfig {
     /// background's windows; chosen on the 13 scenes for about 1.1× the run time
     /// (docs/notes/energy.md). `photo.support_sigma_color = 0` gives box windows.
     pub photo: PhotoConfig,
+    /// Bound the planes by the scene's vertical extent: along the vertical (the dominant
+    /// direction nearest the cameras' mean "up"), a plane point more than
+    /// `vertical_extent_margin` of the scene's height below the lowest or above the highest
+    /// sparse point or camera centre costs `data_truncation`, as a plane behind the camera
+    /// does. Nothing of a building is seen below its floor or ground or above its highest
+    /// point, so a wall is not continued over the floor or the ceiling of a view that sees
+    /// little else. Off when no direction is within 25° of the cameras' "up".
+    pub vertical_extent: bool,
+    /// The margin of `vertical_extent`, a fraction ≥ 0 of the height spanned by the sparse
+    /// points and camera centres.
+    pub vertical_extent_margin: f64,
 }
 
 impl Default for PlanemapConfig {
@@ -165,6 +176,8 @@ impl Default for PlanemapConfig {
                 support_sigma_color: 0.15,
                 ..PhotoConfig::default()
             },
+            vertical_extent: false,
+            vertical_extent_margin: 0.1,
         }
     }
 }
@@ -213,6 +226,7 @@ impl PlanemapConfig {
             });
         }
         non_negative("photo_weight", self.photo_weight)?;
+        non_negative("vertical_extent_margin", self.vertical_extent_margin)?;
         self.photo.validate().map_err(|e| PlanemapError::Config {
             field: "photo",
             message: e.to_string(),

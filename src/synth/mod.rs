@@ -31,7 +31,8 @@ use thiserror::Error;
 
 pub use spec::{
     CameraSpec, LightingSpec, MaterialSpec, ObjectSpec, RenderSpec, RigSpec, SceneSpec, SparseSpec,
-    TextureKind, ViewSpec, BOX_FACES,
+    TextureKind, ViewSpec, BOX_FACES, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_TOTAL_PIXELS,
+    MAX_VIEWS,
 };
 
 use crate::geometry::Plane;

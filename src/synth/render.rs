@@ -61,6 +61,13 @@ pub(crate) fn build_camera(spec: &SceneSpec, opts: &RenderOptions) -> Result<Cam
             message: format!("requested image size {w}x{h} must be positive"),
         });
     }
+    super::spec::check_render_size(w, h, rig_poses(spec).len(), "requested ").map_err(
+        |message| SynthError::Invalid {
+            origin: spec.name.clone(),
+            line: None,
+            message,
+        },
+    )?;
     Ok(cam.rescaled(w, h))
 }
 

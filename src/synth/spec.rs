@@ -11,6 +11,55 @@ use serde::{Deserialize, Serialize};
 
 use super::SynthError;
 
+/// Largest image side the renderer accepts, in pixels (spec or `--width`/`--height`). The
+/// largest photographs taken are ~14k px wide; beyond 16384 a size is a typo, and refusing
+/// it is better than an allocation failure that aborts the process.
+pub const MAX_IMAGE_SIDE: u32 = 16_384;
+/// Largest image the renderer accepts, in pixels (2^26 ≈ 67 Mpx, e.g. 8192×8192). Rendering
+/// keeps about 52 bytes per pixel (image, clean images, depth, normals, plane ids, texture
+/// mask), so one such view takes ~3.5 GB.
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 26;
+/// Most views a scene may have (all rigs together). The benchmark scenes have ≤ 22; real SfM
+/// datasets a few thousand. Each view is rendered and kept in memory.
+pub const MAX_VIEWS: usize = 10_000;
+/// Most pixels over all views (2^27 ≈ 134 Mpx, ~7 GB of render buffers), since every view's
+/// buffers are kept until the workspace is written.
+pub const MAX_TOTAL_PIXELS: u64 = 1 << 27;
+
+/// Checks an image size and view count against [`MAX_IMAGE_SIDE`], [`MAX_IMAGE_PIXELS`] and
+/// [`MAX_TOTAL_PIXELS`]. `field` names where the size came from (`camera` or the render
+/// option) for the message.
+pub(crate) fn check_render_size(
+    width: u32,
+    height: u32,
+    views: usize,
+    field: &str,
+) -> Result<(), String> {
+    for (name, v) in [("width", width), ("height", height)] {
+        if v > MAX_IMAGE_SIDE {
+            return Err(format!(
+                "{field}{name} {v} exceeds the limit of {MAX_IMAGE_SIDE} pixels"
+            ));
+        }
+    }
+    let pixels = u64::from(width) * u64::from(height);
+    if pixels > MAX_IMAGE_PIXELS {
+        return Err(format!(
+            "{field}width x {field}height = {width}x{height} = {pixels} pixels exceeds the \
+             limit of {MAX_IMAGE_PIXELS} pixels per image"
+        ));
+    }
+    let total = pixels.saturating_mul(views as u64);
+    if total > MAX_TOTAL_PIXELS {
+        return Err(format!(
+            "{views} views of {width}x{height} are {total} pixels, over the limit of \
+             {MAX_TOTAL_PIXELS} pixels for all views together (reduce {field}width/{field}height \
+             or the rigs' counts)"
+        ));
+    }
+    Ok(())
+}
+
 /// A whole synthetic scene.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -916,9 +965,29 @@ impl SceneSpec {
                 "no camera rigs: the scene has zero views".into(),
             ));
         }
+        let mut views = 0usize;
         for (i, rig) in self.rigs.iter().enumerate() {
             let place = Place::Rig(i);
             let bad = |m: &str| Err(fail(place, m.to_string()));
+            let (field, n) = match rig {
+                RigSpec::Orbit { count, .. } | RigSpec::Facade { count, .. } => ("count", *count),
+                RigSpec::Walk {
+                    positions, count, ..
+                } if positions.is_empty() => ("count", *count),
+                RigSpec::Walk { positions, .. } => ("positions", positions.len()),
+                RigSpec::List { views, .. } => ("views", views.len()),
+            };
+            if n > MAX_VIEWS {
+                return bad(&format!(
+                    "{field} gives {n} views, over the limit of {MAX_VIEWS} views per scene"
+                ));
+            }
+            views += n;
+            if views > MAX_VIEWS {
+                return bad(&format!(
+                    "{field} brings the scene to {views} views, over the limit of {MAX_VIEWS}"
+                ));
+            }
             match rig {
                 RigSpec::Orbit {
                     center,
@@ -1045,6 +1114,7 @@ impl SceneSpec {
                 }
             }
         }
+        check_render_size(c.width, c.height, views, "camera.").map_err(|m| fail(Place::Top, m))?;
         Ok(())
     }
 }

@@ -768,3 +768,49 @@ views = [{ position = [0.0, 0.0, 0.0], target = [0.0, 1.0, 0.0] }]
         assert!(err.contains(want) && err.contains("(polygon "), "{err}");
     }
 }
+
+#[test]
+fn huge_sizes_and_counts_are_errors_not_aborts() {
+    // An image side over the limit, in the spec and as a render option.
+    let text = DEMO.replacen("width = 160", "width = 100000", 1);
+    let e = SceneSpec::from_toml_str(&text, "big.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("big.toml") && e.contains("camera.width 100000") && e.contains("16384"),
+        "{e}"
+    );
+    let e = render(&demo(), &small(100_000), &quiet)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("requested width 100000") && e.contains("16384"),
+        "{e}"
+    );
+    // Both sides within the limit, but too many pixels for one image.
+    let opts = RenderOptions {
+        width: Some(16_000),
+        height: Some(16_000),
+        seed_override: None,
+    };
+    let e = render(&demo(), &opts, &quiet).unwrap_err().to_string();
+    assert!(e.contains("pixels per image"), "{e}");
+    // A rig of a billion cameras: named, with the limit.
+    let text = DEMO.replacen("count = 7", "count = 1000000000", 1);
+    let e = SceneSpec::from_toml_str(&text, "many.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("rigs[0]") && e.contains("1000000000 views") && e.contains("10000"),
+        "{e}"
+    );
+    // Many views of a moderate size: over the total budget.
+    let text = DEMO
+        .replacen("count = 7", "count = 9000", 1)
+        .replacen("width = 160", "width = 4000", 1)
+        .replacen("height = 120", "height = 3000", 1);
+    let e = SceneSpec::from_toml_str(&text, "total.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("9000 views of 4000x3000"), "{e}");
+}

@@ -17,7 +17,7 @@
 use std::io::{Read, Write};
 use std::path::PathBuf;
 
-use crate::geometry::{Camera, CameraModel};
+use crate::geometry::{colmap_rotation, Camera, CameraModel};
 
 use super::{ColmapCamera, ColmapError, ColmapImage, ColmapPoint3D, Location, Point2D};
 
@@ -176,7 +176,8 @@ pub fn read_cameras_bin(r: impl Read) -> Result<Vec<ColmapCamera>, ColmapError> 
             CameraModel::from_colmap_id(model_id).map_err(|_| ColmapError::UnknownModel {
                 file: PathBuf::from(FILE),
                 at,
-                model: format!("model id {model_id}"),
+                model: format!("id {model_id}"),
+                expected: CameraModel::id_list(),
             })?;
         let width = c.u64("width")?;
         let width = size_u32(&c, width, "width")?;
@@ -208,6 +209,7 @@ pub fn read_images_bin(r: impl Read) -> Result<Vec<ColmapImage>, ColmapError> {
     let mut images = Vec::with_capacity(n);
     for _ in 0..n {
         let image_id = c.u32("image_id")?;
+        let qvec_at = c.offset();
         let mut qvec = [0.0; 4];
         for (v, name) in qvec.iter_mut().zip(["qw", "qx", "qy", "qz"]) {
             *v = c.finite_f64(name)?;
@@ -235,6 +237,13 @@ pub fn read_images_bin(r: impl Read) -> Result<Vec<ColmapImage>, ColmapError> {
             })?
             .to_string();
         c.pos += len + 1;
+        colmap_rotation(qvec).map_err(|source| ColmapError::BadQuaternion {
+            file: PathBuf::from(FILE),
+            at: qvec_at,
+            image_id,
+            name: name.clone(),
+            source,
+        })?;
         let np = c.count("number of 2D points", POINT2D_BYTES)?;
         let mut points2d = Vec::with_capacity(np);
         for _ in 0..np {

@@ -25,7 +25,9 @@ use std::path::{Path, PathBuf};
 use nalgebra::Vector3;
 use thiserror::Error;
 
-use crate::geometry::{rigid_from_colmap, rigid_to_colmap, Camera, CameraError};
+use crate::geometry::{
+    colmap_rotation, rigid_from_colmap, rigid_to_colmap, Camera, CameraError, PoseError,
+};
 use crate::scene::{Scene, SceneError, SparseCloud, View};
 
 pub use binary::{
@@ -113,14 +115,16 @@ pub enum ColmapError {
         got: String,
     },
     /// A camera model planemap does not support (name or numeric id).
-    #[error("{}: {at}: unknown camera model {model} (supported: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV)", file.display())]
+    #[error("{}: {at}: unknown camera model {model} (expected {expected})", file.display())]
     UnknownModel {
         /// The file.
         file: PathBuf,
         /// Where the camera record is.
         at: Location,
-        /// The model name or `model id N`.
+        /// The model name, or `id N` for a numeric id.
         model: String,
+        /// The supported names or ids.
+        expected: String,
     },
     /// A camera line has the wrong number of parameters for its model.
     #[error("{}: {at}: camera model {model} takes {expected} parameters, got {got}", file.display())]
@@ -145,6 +149,34 @@ pub enum ColmapError {
         at: Location,
         /// The camera's id.
         camera_id: u32,
+        /// Why.
+        source: CameraError,
+    },
+    /// An image's rotation quaternion is zero, non-finite or far from unit length (a
+    /// near-unit one is renormalised as COLMAP does; see
+    /// [`crate::geometry::QUATERNION_NORM_TOLERANCE`]).
+    #[error("{}: {at}: image {image_id} ({name}): {source}", file.display())]
+    BadQuaternion {
+        /// The file.
+        file: PathBuf,
+        /// Where the image record is (its line, or the offset of `qw`).
+        at: Location,
+        /// The image's id.
+        image_id: u32,
+        /// The image's name.
+        name: String,
+        /// The quaternion and its norm.
+        source: PoseError,
+    },
+    /// A camera reads fine but cannot be reconstructed with (see [`Camera::check_usable`]).
+    #[error("camera {camera_id} (used by image {image_id}, {name}): {source}")]
+    UnusableCamera {
+        /// The camera's id.
+        camera_id: u32,
+        /// The first image using it.
+        image_id: u32,
+        /// That image's name.
+        name: String,
         /// Why.
         source: CameraError,
     },
@@ -199,9 +231,13 @@ impl ColmapError {
             | ColmapError::ParamCount { file, .. }
             | ColmapError::BadCamera { file, .. }
             | ColmapError::NonFinite { file, .. }
+            | ColmapError::BadQuaternion { file, .. }
             | ColmapError::Invalid { file, .. }
             | ColmapError::Inconsistent { file, .. } => *file = path.to_path_buf(),
-            ColmapError::NoModel { .. } | ColmapError::Unwritable(_) | ColmapError::Scene(_) => {}
+            ColmapError::NoModel { .. }
+            | ColmapError::Unwritable(_)
+            | ColmapError::Scene(_)
+            | ColmapError::UnusableCamera { .. } => {}
         }
         self
     }
@@ -232,7 +268,10 @@ pub struct Point2D {
 pub struct ColmapImage {
     /// COLMAP `image_id`.
     pub image_id: u32,
-    /// Rotation of `cam_from_world` as a quaternion `(w, x, y, z)`, stored as read.
+    /// Rotation of `cam_from_world` as a quaternion `(w, x, y, z)`, stored as read (so that
+    /// files round-trip); readers reject one whose norm is not within
+    /// [`crate::geometry::QUATERNION_NORM_TOLERANCE`] of 1, and [`ColmapModel::to_scene`]
+    /// renormalises.
     pub qvec: [f64; 4],
     /// Translation of `cam_from_world`.
     pub tvec: [f64; 3],
@@ -382,6 +421,12 @@ impl ColmapModel {
                     message: format!("image {} has a non-finite value", im.image_id),
                 });
             }
+            if let Err(e) = colmap_rotation(im.qvec) {
+                return Err(ColmapError::Inconsistent {
+                    file: file("images"),
+                    message: format!("image {} ({}): {e}", im.image_id, im.name),
+                });
+            }
         }
         let mut points = HashSet::new();
         for p in &self.points3d {
@@ -423,7 +468,8 @@ impl ColmapModel {
 
     /// Converts to a [`Scene`]: views sorted by `image_id` (so the result does not depend on
     /// file order), cameras copied as they are (still distorted; see
-    /// [`Scene::undistorted`]), `image_path = images_dir/name` when `images_dir` is given.
+    /// [`Scene::undistorted`]) after [`Camera::check_usable`], rotations renormalised (see
+    /// [`colmap_rotation`]), `image_path = images_dir/name` when `images_dir` is given.
     /// Point tracks become sorted, deduplicated view indices; `errors` are COLMAP's
     /// reprojection errors (0 where COLMAP wrote a negative "unknown"); normals are `None`;
     /// confidence is [`point_confidence`].
@@ -440,11 +486,26 @@ impl ColmapModel {
         let mut views = Vec::with_capacity(order.len());
         for (idx, im) in order.iter().enumerate() {
             view_of_image.insert(im.image_id, idx as u32);
+            let camera = cams[&im.camera_id];
+            camera
+                .check_usable()
+                .map_err(|source| ColmapError::UnusableCamera {
+                    camera_id: im.camera_id,
+                    image_id: im.image_id,
+                    name: im.name.clone(),
+                    source,
+                })?;
+            // `validate` checked the quaternion already; keep the error path anyway.
+            let cam_from_world =
+                rigid_from_colmap(im.qvec, im.tvec).map_err(|e| ColmapError::Inconsistent {
+                    file: PathBuf::from("images"),
+                    message: format!("image {} ({}): {e}", im.image_id, im.name),
+                })?;
             views.push(View {
                 id: im.image_id,
                 name: im.name.clone(),
-                camera: cams[&im.camera_id].clone(),
-                cam_from_world: rigid_from_colmap(im.qvec, im.tvec),
+                camera: camera.clone(),
+                cam_from_world,
                 image_path: images_dir.map(|d| d.join(&im.name)),
             });
         }

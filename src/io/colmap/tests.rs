@@ -30,7 +30,12 @@ fn sample() -> ColmapModel {
     let images = vec![
         ColmapImage {
             image_id: 5,
-            qvec: [0.9, 0.1, -0.3, std::f64::consts::PI / 10.0],
+            // Unit to rounding, with awkward digits.
+            qvec: {
+                let q = [0.9, 0.1, -0.3, std::f64::consts::PI / 10.0];
+                let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+                q.map(|v| v / n)
+            },
             tvec: [1e-300, -2.5e300, 0.30000000000000004],
             camera_id: 7,
             name: "b/img_5.png".into(),
@@ -254,7 +259,117 @@ fn unknown_model_and_param_count_are_reported() {
     b[0][12..16].copy_from_slice(&99i32.to_le_bytes());
     let e = read_cameras_bin(&b[0][..]).unwrap_err().to_string();
     assert!(
-        e.contains("byte offset 8") && e.contains("model id 99"),
+        e.contains("byte offset 8")
+            && e.contains("unknown camera model id 99 (expected 0–4: 0 SIMPLE_PINHOLE")
+            && !e.contains("model model"),
+        "{e}"
+    );
+}
+
+#[test]
+fn utf8_byte_order_mark_is_accepted() {
+    let m = sample();
+    let t = text_bytes(&m);
+    let with_bom = |b: &[u8]| [b"\xEF\xBB\xBF".as_slice(), b].concat();
+    let cams = read_cameras_text(&with_bom(&t[0])[..]).unwrap();
+    assert_eq!(cams, m.cameras);
+    let images = read_images_text(&with_bom(&t[1])[..]).unwrap();
+    assert_eq!(images, m.images);
+    let points = read_points3d_text(&with_bom(&t[2])[..]).unwrap();
+    assert_eq!(points, m.points3d);
+    // Without a comment header the BOM sits right before the first record.
+    let cams = read_cameras_text(&b"\xEF\xBB\xBF1 PINHOLE 10 10 5 5 5 5\n"[..]).unwrap();
+    assert_eq!(cams[0].camera_id, 1);
+    // A BOM elsewhere is still not a number.
+    assert!(read_cameras_text(
+        &b"1 PINHOLE 10 10 5 5 5 5\n\xEF\xBB\xBF2 PINHOLE 1 1 1 1 1 1\n"[..]
+    )
+    .is_err());
+}
+
+#[test]
+fn near_unit_quaternions_are_renormalised_far_ones_rejected() {
+    // Quarter turn about z, stored with norm 1.0004 (lost digits): read, and the scene's
+    // pose is the quarter turn (so depths are right).
+    let h = std::f64::consts::FRAC_1_SQRT_2 * 1.0004;
+    let mut m = ColmapModel {
+        cameras: vec![ColmapCamera {
+            camera_id: 1,
+            camera: Camera::pinhole(64, 48, 50.0, 50.0, 32.0, 24.0),
+        }],
+        images: vec![ColmapImage {
+            image_id: 3,
+            qvec: [h, 0.0, 0.0, h],
+            tvec: [0.0, 0.0, 2.0],
+            camera_id: 1,
+            name: "c.png".into(),
+            points2d: vec![],
+        }],
+        points3d: vec![],
+    };
+    for bytes in [text_bytes(&m), model_to_bin_bytes(&m).unwrap()] {
+        let read = if bytes[1].starts_with(b"#") {
+            from_text(&bytes)
+        } else {
+            from_bin(&bytes)
+        };
+        let read = read.unwrap();
+        assert_eq!(read.images[0].qvec, m.images[0].qvec, "stored as read");
+        let scene = read.to_scene(None).unwrap();
+        let (_, depth) = scene.views[0]
+            .project(&nalgebra::Vector3::new(0.0, 1.0, 3.0))
+            .unwrap();
+        assert!((depth - 5.0).abs() < 1e-12, "depth {depth}");
+        let x = scene.views[0].cam_from_world * nalgebra::Point3::new(1.0, 0.0, 0.0);
+        assert!((x.coords - nalgebra::Vector3::new(0.0, 1.0, 2.0)).norm() < 1e-12);
+    }
+
+    // Zero, scaled and NaN-free garbage: errors naming file, image id, name and place.
+    for q in [[0.0; 4], [2.0, 0.0, 0.0, 0.0], [0.5, 0.5, 0.5, 0.4]] {
+        m.images[0].qvec = q;
+        let mut text = Vec::new();
+        // Not through write_images_text, which validates nothing but is fine; build by hand
+        // to place the image on line 2.
+        text.extend_from_slice(b"# header\n");
+        text.extend_from_slice(
+            format!("3 {} {} {} {} 0 0 2 1 c.png\n\n", q[0], q[1], q[2], q[3]).as_bytes(),
+        );
+        let e = read_images_text(&text[..]).unwrap_err().to_string();
+        assert!(
+            e.contains("images.txt: line 2: image 3 (c.png): quaternion")
+                && e.contains("expected a unit quaternion"),
+            "{e}"
+        );
+        let mut b = Vec::new();
+        write_images_bin(&mut b, &m.images).unwrap();
+        let e = read_images_bin(&b[..]).unwrap_err().to_string();
+        assert!(
+            e.contains("images.bin: byte offset 12: image 3 (c.png): quaternion")
+                && e.contains("has norm"),
+            "{e}"
+        );
+        // A model built in memory is checked too.
+        let e = m.validate(ModelFormat::Text).unwrap_err().to_string();
+        assert!(
+            e.contains("image 3 (c.png)") && e.contains("quaternion"),
+            "{e}"
+        );
+        assert!(m.to_scene(None).is_err());
+    }
+}
+
+#[test]
+fn to_scene_rejects_an_absurd_principal_point_by_camera() {
+    let mut m = sample();
+    m.cameras[1].camera.params[1] = 1e300;
+    // The reader accepts the record (info shows and warns about it) ...
+    let t = text_bytes(&m);
+    let read = from_text(&t).unwrap();
+    // ... but building a scene refuses it, naming the camera and the image using it.
+    let e = read.to_scene(None).unwrap_err().to_string();
+    assert!(
+        e.contains("camera 2 (used by image 1, a.png)")
+            && e.contains("principal point (1e300, 40.0)"),
         "{e}"
     );
 }

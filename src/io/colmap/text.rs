@@ -12,7 +12,7 @@ use std::io::{BufRead, Write};
 use std::path::PathBuf;
 use std::str::FromStr;
 
-use crate::geometry::{Camera, CameraModel};
+use crate::geometry::{colmap_rotation, Camera, CameraModel};
 
 use super::{
     ColmapCamera, ColmapError, ColmapImage, ColmapPoint3D, Location, Point2D, TrackElement,
@@ -69,13 +69,17 @@ fn io_err(file: &'static str) -> impl Fn(std::io::Error) -> ColmapError {
     }
 }
 
-/// Reads all lines with their 1-based numbers.
-/// Reads all lines (`\n` or `\r\n` endings); a line that is not UTF-8 is an error naming it.
+/// The UTF-8 byte order mark some Windows editors put at the start of a text file.
+const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// Reads all lines (`\n` or `\r\n` endings), after a leading UTF-8 byte order mark if any;
+/// a line that is not UTF-8 is an error naming it.
 fn read_lines(mut r: impl BufRead, file: &'static str) -> Result<Vec<String>, ColmapError> {
     let mut bytes = Vec::new();
     r.read_to_end(&mut bytes).map_err(io_err(file))?;
+    let bytes = bytes.strip_prefix(UTF8_BOM).unwrap_or(&bytes);
     let mut lines = Vec::new();
-    let body = bytes.strip_suffix(b"\n").unwrap_or(&bytes);
+    let body = bytes.strip_suffix(b"\n").unwrap_or(bytes);
     if body.is_empty() && bytes.is_empty() {
         return Ok(lines);
     }
@@ -116,6 +120,10 @@ pub fn read_cameras_text(r: impl BufRead) -> Result<Vec<ColmapCamera>, ColmapErr
             file: PathBuf::from(FILE),
             at: line.at(),
             model: model_name.clone(),
+            expected: format!(
+                "one of {}",
+                CameraModel::ALL.map(CameraModel::name).join(", ")
+            ),
         })?;
         let width: u32 = line.get(2, "WIDTH", "an unsigned 32-bit integer")?;
         let height: u32 = line.get(3, "HEIGHT", "an unsigned 32-bit integer")?;
@@ -182,6 +190,13 @@ pub fn read_images_text(r: impl BufRead) -> Result<Vec<ColmapImage>, ColmapError
         }
         let camera_id: u32 = line.get(8, "CAMERA_ID", "an unsigned 32-bit integer")?;
         let name: String = line.get(9, "NAME", "an image name")?;
+        colmap_rotation(qvec).map_err(|source| ColmapError::BadQuaternion {
+            file: PathBuf::from(FILE),
+            at: line.at(),
+            image_id,
+            name: name.clone(),
+            source,
+        })?;
         if line.fields.len() > 10 {
             return Err(ColmapError::Parse {
                 file: PathBuf::from(FILE),

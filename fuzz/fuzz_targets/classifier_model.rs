@@ -1,0 +1,7 @@
+#![no_main]
+//! Fuzzes [`planemap_fuzz::readers::classifier_model`].
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let _ = planemap_fuzz::readers::classifier_model(data);
+});

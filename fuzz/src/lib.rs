@@ -1,0 +1,2 @@
+//! Fuzz targets for planemap's readers; see `README.md`.
+pub mod readers;
