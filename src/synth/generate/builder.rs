@@ -474,6 +474,7 @@ impl Builder {
     }
 
     /// A rectangle: `w` across, `h` along `up` (projected into the plane), seen from `normal`.
+    #[allow(clippy::too_many_arguments)]
     pub fn quad(
         &mut self,
         name: &str,
@@ -555,6 +556,7 @@ impl Builder {
     }
 
     /// A decal on a wall face: a `w × h` rectangle centred at local `(a, z)`.
+    #[allow(clippy::too_many_arguments)]
     pub fn decal(
         &mut self,
         name: &str,

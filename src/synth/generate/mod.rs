@@ -9,13 +9,11 @@
 //!   (`interior`, `hall`, `street`, `pavilion`, `plaza`) and in `scenes/README.md`.
 //! - `builder`: seeded draws, a palette of real building materials (plain paint on 30–70 %
 //!   of the wall area, brick, stone, tiles, boards, glazing, posters), walls with recessed
-//!   openings, and views kept only when their probe rays see the scene ([`ViewRule`]-style
-//!   checks: a view looking at sky or into a cabinet is drawn again).
+//!   openings, and views kept only when their probe rays see the scene (`ViewRule` checks:
+//!   a view looking at sky or into a cabinet is drawn again).
 //! - [`split`]: the held-out protocol. Seeds below [`TEST_SEEDS`]`.start` are for
 //!   development and tuning; seeds in [`TEST_SEEDS`] are the test split, reported and never
 //!   tuned on.
-//!
-//! [`ViewRule`]: builder::ViewRule
 
 mod builder;
 mod buildings;
