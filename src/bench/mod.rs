@@ -14,6 +14,7 @@
 
 pub mod cache;
 pub mod font;
+pub mod generated;
 pub mod record;
 pub mod report;
 
@@ -36,11 +37,16 @@ use crate::photo::MultiSweepConfig;
 use crate::pipeline::{self, Config, FusionConfig, RunOptions, ViewPlanemap};
 use crate::progress::Progress;
 use crate::scene::Scene;
-use crate::synth::generate::{self, GenerateOptions, Kind};
 
 use metrics::{
     cloud_scores, depth_counts, has_depth, peak_memory_bytes, reset_peak_memory,
-    resident_memory_bytes, segmentation, CloudScores, DepthCounts, MeshDistance, Segmentation,
+    resident_memory_bytes, segmentation, view_collapsed, CloudScores, Collapses, DepthCounts,
+    MeshDistance, Segmentation,
+};
+
+pub use generated::{
+    generated_markdown, kind_summaries, markdown, parse_generated, GeneratedSet, GeneratedTag,
+    KindSummary,
 };
 
 /// Errors of the benchmark.
@@ -245,81 +251,6 @@ pub fn bench_sweep_config() -> MultiSweepConfig {
     }
 }
 
-/// A set of generated scenes: `count` consecutive seeds from `first_seed` of each kind.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct GeneratedSet {
-    /// The kinds, in report order.
-    pub kinds: Vec<Kind>,
-    /// Seeds per kind.
-    pub count: u64,
-    /// The first seed (below [`generate::TEST_SEEDS`] for development, in it for the test
-    /// split).
-    pub first_seed: u64,
-}
-
-impl GeneratedSet {
-    /// The (kind, seed) pairs, kind by kind.
-    pub fn scenes(&self) -> impl Iterator<Item = (Kind, u64)> + '_ {
-        self.kinds.iter().flat_map(move |&k| {
-            (self.first_seed..self.first_seed.saturating_add(self.count)).map(move |s| (k, s))
-        })
-    }
-}
-
-/// Parses `--generated`: `KIND:COUNT[@FIRST_SEED]`, KIND a [`Kind`] name or `all` (every
-/// kind), FIRST_SEED 0 by default (development seeds), e.g. `all:10@1000` (the test split's
-/// first ten seeds of every kind).
-pub fn parse_generated(s: &str) -> Result<GeneratedSet, BenchError> {
-    let bad = |why: &str| {
-        let kinds: Vec<&str> = Kind::ALL.iter().map(|k| k.name()).collect();
-        BenchError::Option(format!(
-            "bad --generated {s:?}: {why}; expected KIND:COUNT[@FIRST_SEED] with KIND one of {} or all, e.g. all:10@1000",
-            kinds.join(", ")
-        ))
-    };
-    let (kind, rest) = s.trim().split_once(':').ok_or_else(|| bad("no ':'"))?;
-    let (count, first) = match rest.split_once('@') {
-        Some((c, f)) => (c, Some(f)),
-        None => (rest, None),
-    };
-    let count: u64 = count
-        .trim()
-        .parse()
-        .map_err(|_| bad("COUNT is not a number"))?;
-    if count == 0 {
-        return Err(bad("COUNT must be at least 1"));
-    }
-    let first_seed: u64 = match first {
-        Some(f) => f
-            .trim()
-            .parse()
-            .map_err(|_| bad("FIRST_SEED is not a number"))?,
-        None => 0,
-    };
-    let kinds = match kind.trim() {
-        "all" => Kind::ALL.to_vec(),
-        k => vec![Kind::from_name(k).ok_or_else(|| bad("unknown kind"))?],
-    };
-    Ok(GeneratedSet {
-        kinds,
-        count,
-        first_seed,
-    })
-}
-
-/// What a generated scene is, in its [`SceneResult`].
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
-pub struct GeneratedTag {
-    /// The kind.
-    pub kind: Kind,
-    /// The seed.
-    pub seed: u64,
-    /// `development`, `test` or `reserved` ([`generate::split`]).
-    pub split: &'static str,
-    /// [`generate::GENERATOR_VERSION`].
-    pub generator_version: u32,
-}
-
 /// Fronto-parallel planes of the benchmark's sweep (the baseline's own default is 128).
 pub const BENCH_SWEEP_PLANES: usize = 64;
 /// Neighbour views of the benchmark's sweep (the baseline's own default is 8).
@@ -343,6 +274,9 @@ pub struct MethodResult {
     pub views: Vec<(String, DepthCounts)>,
     /// Plane segmentation (methods with global plane labels only).
     pub segmentation: Option<Segmentation>,
+    /// Views collapsed to one plane label ([`metrics::view_collapsed`]; methods with global
+    /// plane labels only).
+    pub collapse: Option<Collapses>,
     /// Fused point cloud against the ground-truth mesh.
     pub cloud: CloudScores,
     /// Wall-clock seconds per stage, in order.
@@ -494,7 +428,27 @@ pub fn run_bench(
     std::fs::create_dir_all(&cache_root).map_err(|e| io_err(&cache_root, e))?;
     let mut jobs: Vec<(PathBuf, Option<GeneratedTag>)> =
         scene_files.iter().map(|f| (f.clone(), None)).collect();
-    jobs.extend(write_generated(&cfg.generated, &out.join("generated"))?);
+    let drawn = generated::write_generated(&cfg.generated, &out.join("generated"))?;
+    if !drawn.is_empty() {
+        // Before any work: a scene file named like a generated scene would share its output
+        // folders.
+        let names: std::collections::BTreeSet<String> = drawn
+            .iter()
+            .filter_map(|(f, _)| f.file_stem().map(|s| s.to_string_lossy().into_owned()))
+            .collect();
+        for file in scene_files {
+            let spec = crate::synth::SceneSpec::from_path(file)?;
+            if names.contains(&spec.name) {
+                return Err(BenchError::Option(format!(
+                    "{}: scene {} has the name of a generated scene of this run (their \
+                     outputs would overwrite each other); leave the file out",
+                    file.display(),
+                    spec.name
+                )));
+            }
+        }
+    }
+    jobs.extend(drawn);
     let mut scenes = Vec::new();
     for (file, generated) in &jobs {
         let file = file.as_path();
@@ -540,7 +494,7 @@ pub fn run_bench(
             scenes: scenes.clone(),
             seconds: start.elapsed().as_secs_f64(),
         };
-        write_reports(&partial, out)?;
+        generated::write_reports(&partial, out)?;
     }
     if scenes.is_empty() {
         return Err(BenchError::Option(
@@ -554,238 +508,8 @@ pub fn run_bench(
         scenes,
         seconds: start.elapsed().as_secs_f64(),
     };
-    write_reports(&results, out)?;
+    generated::write_reports(&results, out)?;
     Ok(results)
-}
-
-/// Draws the scenes of `sets` (each (kind, seed) once, in order) and writes them to
-/// `dir/NAME.toml`; returns the files with their tags. The bench cache is keyed by a
-/// file's bytes, so a generated scene is rendered again only when the generator changes it.
-fn write_generated(
-    sets: &[GeneratedSet],
-    dir: &Path,
-) -> Result<Vec<(PathBuf, Option<GeneratedTag>)>, BenchError> {
-    let mut out = Vec::new();
-    let mut seen = std::collections::BTreeSet::new();
-    for (kind, seed) in sets.iter().flat_map(GeneratedSet::scenes) {
-        if !seen.insert((kind, seed)) {
-            continue;
-        }
-        if out.is_empty() {
-            std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
-        }
-        let g = generate::generate(kind, seed, &GenerateOptions::default())?;
-        let path = dir.join(format!("{}.toml", g.spec.name));
-        g.write_toml(&path)?;
-        out.push((
-            path,
-            Some(GeneratedTag {
-                kind,
-                seed,
-                split: generate::split(seed),
-                generator_version: generate::GENERATOR_VERSION,
-            }),
-        ));
-    }
-    Ok(out)
-}
-
-/// [`report::write_reports`], with results.md as [`markdown`] writes it (the generated
-/// scenes under their own heading).
-fn write_reports(results: &BenchResults, out: &Path) -> Result<(), BenchError> {
-    report::write_reports(results, out)?;
-    report::write_atomic(&out.join("results.md"), markdown(results).as_bytes())
-}
-
-impl BenchResults {
-    /// The same run restricted to the scene files (`generated == false`) or to the
-    /// generated scenes (`true`).
-    pub fn subset(&self, generated: bool) -> BenchResults {
-        BenchResults {
-            scenes: self
-                .scenes
-                .iter()
-                .filter(|s| s.generated.is_some() == generated)
-                .cloned()
-                .collect(),
-            ..self.clone()
-        }
-    }
-}
-
-/// results.md: [`report::markdown`] of the scene files and, when the run has generated
-/// scenes, a "Generated scenes" section ([`generated_markdown`]) after them. A run without
-/// generated scenes gets exactly [`report::markdown`].
-pub fn markdown(results: &BenchResults) -> String {
-    let files = results.subset(false);
-    let generated = results.subset(true);
-    if generated.scenes.is_empty() {
-        return report::markdown(results);
-    }
-    let mut s = String::new();
-    if !files.scenes.is_empty() {
-        s.push_str("## Scene files\n\n");
-        s.push_str(&report::markdown(&files));
-        s.push('\n');
-    }
-    s.push_str(&generated_markdown(&generated));
-    s
-}
-
-/// One kind's figures for one method over the generated scenes of a run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct KindSummary {
-    /// The kind.
-    pub kind: Kind,
-    /// The method.
-    pub method: String,
-    /// Scenes the method ran on without failing, and scenes it failed on.
-    pub scenes: usize,
-    /// Scenes where the method failed.
-    pub failed: usize,
-    /// Smallest and largest seed.
-    pub seeds: (u64, u64),
-    /// The splits of those seeds, `+`-joined (`development`, `test`).
-    pub split: String,
-    /// Mean over the scenes of depth within 1 % (share of ground-truth pixels).
-    pub mean_within_1pct: f64,
-    /// Mean F-score of the fused points.
-    pub mean_f_score: f64,
-    /// Nearest-rank 10th percentile of the per-view depth within 1 % over every view of
-    /// every scene of the kind.
-    pub p10_view_within_1pct: f64,
-    /// The worst view's depth within 1 % and its `SCENE/VIEW` name.
-    pub worst_view: (f64, String),
-}
-
-/// Per kind and method: the mean, the 10th-percentile view and the worst view (views with
-/// no ground-truth pixels are left out), from the generated scenes of `results`.
-pub fn kind_summaries(results: &BenchResults) -> Vec<KindSummary> {
-    let mut out = Vec::new();
-    let methods: Vec<String> = results
-        .scenes
-        .first()
-        .map(|s| s.methods.iter().map(|m| m.method.clone()).collect())
-        .unwrap_or_default();
-    for kind in Kind::ALL {
-        let scenes: Vec<&SceneResult> = results
-            .scenes
-            .iter()
-            .filter(|s| s.generated.as_ref().is_some_and(|g| g.kind == kind))
-            .collect();
-        if scenes.is_empty() {
-            continue;
-        }
-        let seeds: Vec<u64> = scenes
-            .iter()
-            .filter_map(|s| s.generated.as_ref().map(|g| g.seed))
-            .collect();
-        let mut splits: Vec<&str> = scenes
-            .iter()
-            .filter_map(|s| s.generated.as_ref().map(|g| g.split))
-            .collect();
-        splits.sort_unstable();
-        splits.dedup();
-        for method in &methods {
-            let (mut n, mut failed, mut acc, mut f) = (0usize, 0usize, 0.0, 0.0);
-            let mut views: Vec<(f64, String)> = Vec::new();
-            for sc in &scenes {
-                match sc.methods.iter().find(|m| &m.method == method) {
-                    Some(m) if m.error.is_none() => {
-                        n += 1;
-                        acc += m.depth.accuracy(1);
-                        f += m.cloud.f_score;
-                        for (name, c) in &m.views {
-                            if c.gt_pixels > 0 {
-                                views.push((c.accuracy(1), format!("{}/{name}", sc.name)));
-                            }
-                        }
-                    }
-                    Some(_) => failed += 1,
-                    None => {}
-                }
-            }
-            views.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
-            let p10 = if views.is_empty() {
-                f64::NAN
-            } else {
-                // Nearest rank: the smallest value with at least 10 % of the views at or
-                // below it.
-                let rank = (0.1 * views.len() as f64).ceil().max(1.0) as usize;
-                views[rank - 1].0
-            };
-            out.push(KindSummary {
-                kind,
-                method: method.clone(),
-                scenes: n,
-                failed,
-                seeds: (
-                    seeds.iter().copied().min().unwrap_or(0),
-                    seeds.iter().copied().max().unwrap_or(0),
-                ),
-                split: splits.join("+"),
-                mean_within_1pct: if n > 0 { acc / n as f64 } else { f64::NAN },
-                mean_f_score: if n > 0 { f / n as f64 } else { f64::NAN },
-                p10_view_within_1pct: p10,
-                worst_view: views.first().cloned().unwrap_or((f64::NAN, String::new())),
-            });
-        }
-    }
-    out
-}
-
-/// The "Generated scenes" section of results.md: [`kind_summaries`] as a table, then
-/// [`report::markdown`] of the generated scenes one by one.
-pub fn generated_markdown(generated: &BenchResults) -> String {
-    let pct = |x: f64| {
-        if x.is_finite() {
-            format!("{:.1}", 100.0 * x)
-        } else {
-            "–".to_string()
-        }
-    };
-    let mut s = String::from("## Generated scenes\n\n");
-    s.push_str(&format!(
-        "Procedural scenes (`planemap synth --generate`, generator v{}): seeds below {} are \
-         for development and tuning, seeds {}–{} are the test split, reported and never tuned \
-         on. Per kind and method: the mean over the scenes of depth within 1 % of ground truth \
-         (% of ground-truth pixels) and of the F-score, the 10th-percentile view \
-         (nearest rank over every view of the kind) and the worst view.\n\n",
-        generate::GENERATOR_VERSION,
-        generate::TEST_SEEDS.start,
-        generate::TEST_SEEDS.start,
-        generate::TEST_SEEDS.end - 1
-    ));
-    s.push_str(
-        "| kind | seeds | split | method | scenes | mean ≤1% | mean F | 10th-pct view ≤1% | worst view ≤1% |\n\
-         |---|---|---|---|---|---|---|---|---|\n",
-    );
-    for k in kind_summaries(generated) {
-        let seeds = if k.seeds.0 == k.seeds.1 {
-            k.seeds.0.to_string()
-        } else {
-            format!("{}–{}", k.seeds.0, k.seeds.1)
-        };
-        let scenes = if k.failed > 0 {
-            format!("{} ({} failed)", k.scenes, k.failed)
-        } else {
-            k.scenes.to_string()
-        };
-        s.push_str(&format!(
-            "| {} | {seeds} | {} | {} | {scenes} | {} | {} | {} | {} ({}) |\n",
-            k.kind,
-            k.split,
-            k.method,
-            pct(k.mean_within_1pct),
-            pct(k.mean_f_score),
-            pct(k.p10_view_within_1pct),
-            pct(k.worst_view.0),
-            k.worst_view.1
-        ));
-    }
-    s.push_str("\n### Generated scenes one by one\n\n");
-    s.push_str(&report::markdown(generated));
-    s
 }
 
 fn bench_scene(
@@ -847,6 +571,7 @@ fn bench_scene(
                     nonplanar_depth: DepthCounts::default(),
                     views: Vec::new(),
                     segmentation: None,
+                    collapse: None,
                     cloud: CloudScores::default(),
                     stages: Vec::new(),
                     seconds,
@@ -1163,7 +888,23 @@ fn score(
         total
     };
     let (planar_depth, nonplanar_depth) = (split(true), split(false));
-    let seg = if pred.views.iter().all(|v| v.labels.is_some()) {
+    let labelled = pred.views.iter().all(|v| v.labels.is_some());
+    let collapse = labelled.then(|| {
+        let mut c = Collapses::default();
+        for v in &pred.views {
+            let labels = v.labels.as_deref().unwrap_or(&[]);
+            match view_collapsed(labels, &gt[v.view_index].planes) {
+                Some(true) => {
+                    c.checked += 1;
+                    c.collapsed.push(scene.views[v.view_index].name.clone());
+                }
+                Some(false) => c.checked += 1,
+                None => {}
+            }
+        }
+        c
+    });
+    let seg = if labelled {
         let pairs: Vec<(&[Option<u32>], &[u16])> = pred
             .views
             .iter()
@@ -1185,6 +926,7 @@ fn score(
         nonplanar_depth,
         views: per_view,
         segmentation: seg,
+        collapse,
         cloud: cloud_scores(&pred.fused, mesh, reference, tolerance),
         stages: Vec::new(),
         seconds: 0.0,
@@ -1213,139 +955,6 @@ mod tests {
         let err = Method::from_name("colmap").unwrap_err().to_string();
         assert!(err.contains("planemap-vis"), "{err}");
         assert!(Method::DEFAULT.iter().all(|m| Method::ALL.contains(m)));
-    }
-
-    #[test]
-    fn generated_sets_parse_and_bad_ones_are_errors() {
-        let g = parse_generated("all:10@1000").unwrap();
-        assert_eq!(g.kinds, Kind::ALL.to_vec());
-        assert_eq!((g.count, g.first_seed), (10, 1000));
-        let g = parse_generated(" plaza:3 ").unwrap();
-        assert_eq!(g.kinds, vec![Kind::Plaza]);
-        assert_eq!((g.count, g.first_seed), (3, 0));
-        let pairs: Vec<(Kind, u64)> = parse_generated("street:2@5").unwrap().scenes().collect();
-        assert_eq!(pairs, vec![(Kind::Street, 5), (Kind::Street, 6)]);
-        for (bad, why) in [
-            ("castle:3", "unknown kind"),
-            ("hall", "no ':'"),
-            ("hall:0", "at least 1"),
-            ("hall:x", "COUNT"),
-            ("hall:2@y", "FIRST_SEED"),
-        ] {
-            let err = parse_generated(bad).unwrap_err().to_string();
-            assert!(
-                err.contains(why) && err.contains("all:10@1000"),
-                "{bad}: {err}"
-            );
-        }
-    }
-
-    /// A scene result with one method whose views score `accs` (depth within 1 %).
-    fn scene_with_views(name: &str, kind: Kind, seed: u64, accs: &[f64]) -> SceneResult {
-        let views: Vec<(String, DepthCounts)> = accs
-            .iter()
-            .enumerate()
-            .map(|(i, &a)| {
-                let c = DepthCounts {
-                    gt_pixels: 1000,
-                    predicted: 1000,
-                    within: [0, (a * 1000.0).round() as u64, 1000],
-                    ..DepthCounts::default()
-                };
-                (format!("view_{i:04}.png"), c)
-            })
-            .collect();
-        let mut depth = DepthCounts::default();
-        for (_, c) in &views {
-            depth.add(c);
-        }
-        SceneResult {
-            name: name.into(),
-            category: kind.category().into(),
-            file: PathBuf::from(format!("{name}.toml")),
-            width: 96,
-            height: 72,
-            views: accs.len(),
-            sparse_points: 0,
-            cache_hit: false,
-            render_seconds: 0.0,
-            median_depth: 1.0,
-            methods: vec![MethodResult {
-                method: "sweep".into(),
-                error: None,
-                depth,
-                planar_depth: DepthCounts::default(),
-                nonplanar_depth: DepthCounts::default(),
-                views,
-                segmentation: None,
-                cloud: CloudScores::default(),
-                stages: Vec::new(),
-                seconds: 0.0,
-                peak_memory_bytes: None,
-                start_memory_bytes: None,
-            }],
-            generated: Some(GeneratedTag {
-                kind,
-                seed,
-                split: generate::split(seed),
-                generator_version: generate::GENERATOR_VERSION,
-            }),
-        }
-    }
-
-    #[test]
-    fn kind_summaries_give_the_mean_the_10th_percentile_and_the_worst_view() {
-        // Twenty views over two hall scenes: 0.00, 0.05, …, 0.95.
-        let a: Vec<f64> = (0..10).map(|i| 0.1 * i as f64).collect();
-        let b: Vec<f64> = (0..10).map(|i| 0.1 * i as f64 + 0.05).collect();
-        let mut plain = scene_with_views("tiny", Kind::Hall, 0, &[0.5]);
-        plain.generated = None;
-        let results = BenchResults {
-            renderer_version: 0,
-            depth_thresholds: metrics::DEPTH_THRESHOLDS,
-            cloud_tolerance_fraction: 0.01,
-            scenes: vec![
-                plain,
-                scene_with_views("hall-1000", Kind::Hall, 1000, &a),
-                scene_with_views("hall-1001", Kind::Hall, 1001, &b),
-                scene_with_views("plaza-0004", Kind::Plaza, 4, &[0.8, 0.6]),
-            ],
-            seconds: 0.0,
-        };
-        let k = kind_summaries(&results.subset(true));
-        assert_eq!(k.len(), 2);
-        let hall = &k[0];
-        assert_eq!(
-            (hall.kind, hall.scenes, hall.seeds),
-            (Kind::Hall, 2, (1000, 1001))
-        );
-        assert_eq!(hall.split, "test");
-        assert!((hall.mean_within_1pct - 0.475).abs() < 1e-9);
-        // Nearest rank of 10 % of 20 views: the 2nd smallest, 0.05.
-        assert!((hall.p10_view_within_1pct - 0.05).abs() < 1e-9);
-        assert_eq!(
-            hall.worst_view,
-            (0.0, "hall-1000/view_0000.png".to_string())
-        );
-        assert!((k[1].p10_view_within_1pct - 0.6).abs() < 1e-9);
-        // results.md: the scene files' table, then the generated heading and one row per
-        // kind and method; the scene files' table does not list generated scenes.
-        let md = markdown(&results);
-        let (files, generated) = md.split_once("## Generated scenes").unwrap();
-        assert!(files.contains("| tiny |") && !files.contains("hall-1000"));
-        assert!(
-            generated.contains("| hall | 1000–1001 | test | sweep | 2 | 47.5 |"),
-            "{md}"
-        );
-        assert!(
-            generated.contains("| plaza | 4 | development | sweep | 1 | 70.0 |"),
-            "{md}"
-        );
-        // Without generated scenes results.md is what it was.
-        assert_eq!(
-            markdown(&results.subset(false)),
-            report::markdown(&results.subset(false))
-        );
     }
 
     #[test]
