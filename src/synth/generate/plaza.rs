@@ -3,7 +3,8 @@
 //! street's buildings: recessed windows, shops, balconies, cornices), with trees (one to
 //! three sphere crowns on a cylinder trunk), statues (a figure of cylinder and sphere on a
 //! plinth), stone spheres, columns and lamp posts, and sometimes a fountain, in front of
-//! them. The non-planar objects are added or removed one at a time until they cover
+//! them. The non-planar objects are added (on the views' lines of sight, else anywhere in
+//! the square, larger when no spot is left) or removed one at a time until they cover
 //! 12–32 % of the probe rays of the chosen views (the rendered share is then 10–35 %).
 //! Views: a walk round the square at eye height (some from 2.5–4 m or crouching) looking
 //! across it at the facades beyond the objects, and drone views 10–16 m up.
@@ -16,6 +17,13 @@ use crate::synth::spec::RigSpec;
 const NONPLANAR_BAND: (f64, f64) = (0.12, 0.32);
 /// Rounds of adding or removing objects before the band is given up on.
 const BALANCE_ROUNDS: usize = 30;
+/// Spots drawn for one added object before the round is given up on.
+const PLACEMENT_ATTEMPTS: usize = 32;
+/// Least distance (metres) from a facade to an object added for the band.
+const ADDED_INSET: f64 = 1.5;
+/// Largest scale of an added object (trees 2.0–3.5 m × scale to the crown, crowns 1.2–2.4
+/// m × scale in radius).
+const MAX_SCALE: f64 = 1.6;
 
 /// The materials of the objects in the square.
 struct Materials {
@@ -300,21 +308,47 @@ pub(super) fn build(b: &mut Builder) -> String {
             scale = (scale * 0.7_f64).max(0.5);
             continue;
         }
-        // Too little: stand a new object on a view's line of sight, a third to two thirds
-        // of the way to what it sees, at least 3 m from every camera.
-        let (p, t) = views[b.int(0, views.len() - 1)];
-        let dir = (t - p).xy();
-        if dir.norm() < 1e-6 {
-            continue;
+        // Too little: stand a new object on a view's line of sight, 5 m or more along it,
+        // inside the square (up to 1.5 m from the facades), at least 3 m from every camera
+        // and clear of other solids. Spots are drawn until one fits: the second half of
+        // the attempts anywhere in the square, the last quarter 2 m from the cameras. When
+        // none fits the next objects are drawn larger. In a small square ringed by cameras
+        // a round that adds nothing leaves the share where it was (generator v1 stopped at
+        // 5 % of the probe rays on plaza-1000).
+        let mut placed = false;
+        for attempt in 0..PLACEMENT_ATTEMPTS {
+            let at = if attempt < PLACEMENT_ATTEMPTS / 2 {
+                let (p, t) = views[b.int(0, views.len() - 1)];
+                let dir = (t - p).xy();
+                if dir.norm() < 1e-6 {
+                    continue;
+                }
+                let dir = dir.normalize();
+                let dist = b.uni(5.0, 0.55 * w.max(d));
+                V3::new(p.x + dir.x * dist, p.y + dir.y * dist, 1.0)
+            } else {
+                V3::new(
+                    b.uni(-hw + ADDED_INSET, hw - ADDED_INSET),
+                    b.uni(-hd + ADDED_INSET, hd - ADDED_INSET),
+                    1.0,
+                )
+            };
+            let clearance = if attempt < PLACEMENT_ATTEMPTS * 3 / 4 {
+                3.0
+            } else {
+                2.0
+            };
+            let inside = at.x.abs() < hw - ADDED_INSET && at.y.abs() < hd - ADDED_INSET;
+            let clear = views.iter().all(|(c, _)| (c - at).xy().norm() > clearance);
+            if inside && clear && !b.in_solid(&at, 1.0) {
+                let mark = (b.spec.objects.len(), b.solids.len());
+                kinds.push((add_object(b, &m, at, scale), mark.0, mark.1));
+                placed = true;
+                break;
+            }
         }
-        let dir = dir.normalize();
-        let dist = b.uni(5.0, 0.55 * w.max(d));
-        let at = V3::new(p.x + dir.x * dist, p.y + dir.y * dist, 1.0);
-        let inside = at.x.abs() < hw - inset && at.y.abs() < hd - inset;
-        let clear = views.iter().all(|(c, _)| (c - at).xy().norm() > 3.0);
-        if inside && clear && !b.in_solid(&at, 1.0) {
-            let mark = (b.spec.objects.len(), b.solids.len());
-            kinds.push((add_object(b, &m, at, scale), mark.0, mark.1));
+        if !placed {
+            scale = (scale * 1.15).min(MAX_SCALE);
         }
     }
     let mut tally: Vec<(&str, usize)> = Vec::new();
