@@ -229,7 +229,15 @@ pub fn generate(
         "Generated {kind} (generator v{GENERATOR_VERSION}, seed {seed}, {} split): {what}",
         split(seed)
     );
-    spec.validate()?;
+    // Named like the file it becomes (`--width 100000` is refused here, not as "<scene>").
+    spec.validate().map_err(|e| match e {
+        SynthError::Invalid { line, message, .. } => SynthError::Invalid {
+            origin: format!("{name} (generated)"),
+            line,
+            message,
+        },
+        e => e,
+    })?;
     let body = toml::to_string_pretty(&spec).map_err(|e| SynthError::Invalid {
         origin: name.clone(),
         line: None,

@@ -68,7 +68,7 @@ fn the_toml_parses_back_to_the_scene() {
 }
 
 #[test]
-fn a_zero_size_is_an_error() {
+fn zero_or_huge_sizes_are_errors_naming_the_scene() {
     let err = generate(
         Kind::Hall,
         0,
@@ -79,6 +79,16 @@ fn a_zero_size_is_an_error() {
     )
     .unwrap_err();
     assert!(err.to_string().contains("0x10"), "{err}");
+    // A size over the renderer's limits is refused naming the generated scene.
+    let huge = GenerateOptions {
+        width: 100_000,
+        height: 240,
+    };
+    let err = generate(Kind::Hall, 2, &huge).unwrap_err().to_string();
+    assert!(
+        err.contains("hall-0002 (generated)") && err.contains("camera.width 100000"),
+        "{err}"
+    );
 }
 
 /// Every kind, two seeds, rendered at 96×72: the planar and non-planar shares in the kind's
