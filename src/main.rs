@@ -33,7 +33,7 @@ struct Cli {
 enum Command {
     /// Render a synthetic scene (TOML) into a COLMAP-style workspace with ground truth.
     #[command(
-        after_help = "Example:\n  planemap synth scenes/room.toml -o out/room --width 640 --height 480"
+        after_help = "Examples:\n  planemap synth scenes/room.toml -o out/room --width 640 --height 480\n  planemap synth --generate plaza --seed 3 -o out/plaza-0003"
     )]
     Synth(SynthArgs),
     /// Summarise a COLMAP sparse model and warn about problems.
@@ -178,8 +178,14 @@ struct ClassifyMapArgs {
 
 #[derive(Args)]
 struct BenchArgs {
-    /// Scene files or folders of *.toml (default: scenes/).
+    /// Scene files or folders of *.toml (default: scenes/, unless --generated is given).
     scenes: Vec<PathBuf>,
+    /// Generated scenes, KIND:COUNT[@FIRST_SEED] (repeatable or comma-separated): KIND
+    /// interior, hall, street, pavilion, plaza or all; FIRST_SEED 0 by default. Seeds below
+    /// 1000 develop, 1000–1999 are the test split, e.g. all:10@1000. Reported per kind under
+    /// their own heading.
+    #[arg(long, value_delimiter = ',', value_name = "KIND:COUNT[@FIRST_SEED]")]
+    generated: Vec<String>,
     /// Keep the run: results.md, results.json and a README (date, commit, command, machine)
     /// under RESULTS_DIR/DATE-COMMIT/, and update README.md's results table (between its
     /// markers) when run from the project's folder.
@@ -281,17 +287,25 @@ struct RunArgs {
 #[derive(Args)]
 struct SynthArgs {
     /// Scene description (TOML; see scenes/README.md).
-    scene: PathBuf,
+    #[arg(required_unless_present = "generate", conflicts_with = "generate")]
+    scene: Option<PathBuf>,
     /// Output directory (created; existing files of the same names are replaced).
     #[arg(short, long)]
     output: PathBuf,
-    /// Override the image width (intrinsics scale with it).
+    /// Draw a scene of this kind instead of reading one (interior, hall, street, pavilion,
+    /// plaza) from --seed; it is also written to OUTPUT/scene.toml.
+    #[arg(long, value_name = "KIND")]
+    generate: Option<String>,
+    /// Override the image width (intrinsics scale with it); with --generate, the generated
+    /// scene's width (default 320).
     #[arg(long)]
     width: Option<u32>,
-    /// Override the image height.
+    /// Override the image height; with --generate, the generated scene's height (default
+    /// 240, or 3/4 of --width).
     #[arg(long)]
     height: Option<u32>,
-    /// Override the scene's random seed.
+    /// Override the scene's random seed; with --generate, the generator's seed (default 0;
+    /// seeds 1000–1999 are the held-out test split).
     #[arg(long)]
     seed: Option<u64>,
 }
@@ -370,21 +384,71 @@ fn init_logging(quiet: bool, verbose: u8) {
 }
 
 fn synth(a: SynthArgs, progress: &Progress) -> Result<()> {
-    let spec = planemap::synth::SceneSpec::from_path(&a.scene)?;
+    if let Some(kind) = &a.generate {
+        return synth_generated(kind, &a, progress);
+    }
+    let scene = a
+        .scene
+        .as_ref()
+        .context("a scene file or --generate is required")?;
+    let spec = planemap::synth::SceneSpec::from_path(scene)?;
     let opts = planemap::synth::RenderOptions {
         width: a.width,
         height: a.height,
         seed_override: a.seed,
     };
     let summary = planemap::workspace::render_to_workspace(&spec, &opts, &a.output, progress)
-        .with_context(|| {
-            format!(
-                "rendering {} into {}",
-                a.scene.display(),
-                a.output.display()
-            )
-        })?;
+        .with_context(|| format!("rendering {} into {}", scene.display(), a.output.display()))?;
     println!("{summary}");
+    Ok(())
+}
+
+/// `synth --generate KIND`: draws the scene, writes OUTPUT/scene.toml, renders it as
+/// `synth OUTPUT/scene.toml` would.
+fn synth_generated(kind: &str, a: &SynthArgs, progress: &Progress) -> Result<()> {
+    use planemap::synth::generate::{generate, split, GenerateOptions, Kind};
+    let kind = Kind::from_name(kind).with_context(|| {
+        let names: Vec<&str> = Kind::ALL.iter().map(|k| k.name()).collect();
+        format!(
+            "unknown kind {kind:?}; expected one of {}",
+            names.join(", ")
+        )
+    })?;
+    let seed = a.seed.unwrap_or(0);
+    let width = a.width.unwrap_or(320);
+    let opts = GenerateOptions {
+        width,
+        height: a.height.unwrap_or(if a.width.is_some() {
+            width * 3 / 4
+        } else {
+            240
+        }),
+    };
+    let generated = generate(kind, seed, &opts)?;
+    std::fs::create_dir_all(&a.output)
+        .with_context(|| format!("creating {}", a.output.display()))?;
+    let toml_path = a.output.join("scene.toml");
+    generated.write_toml(&toml_path)?;
+    let summary = planemap::workspace::render_to_workspace(
+        &generated.spec,
+        &planemap::synth::RenderOptions::default(),
+        &a.output,
+        progress,
+    )
+    .with_context(|| {
+        format!(
+            "rendering {} into {}",
+            generated.spec.name,
+            a.output.display()
+        )
+    })?;
+    println!("{summary}");
+    println!(
+        "  generated {kind} seed {seed} ({} split): {}\n  scene written to {}",
+        split(seed),
+        generated.spec.description,
+        toml_path.display()
+    );
     Ok(())
 }
 
@@ -744,7 +808,9 @@ fn print_scores(name: &str, s: &planemap::classify::dataset::WorkspaceScores) {
 }
 
 fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
-    use planemap::bench::{collect_scene_files, parse_size, run_bench, BenchConfig, Method};
+    use planemap::bench::{
+        collect_scene_files, parse_generated, parse_size, run_bench, BenchConfig, Method,
+    };
     let mut cfg = BenchConfig::default();
     if let Some(m) = &a.methods {
         cfg.methods = if m.iter().any(|s| s == "all") {
@@ -757,6 +823,11 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
     }
     cfg.size = parse_size(&a.size)?;
     cfg.scene_filter = a.scene_filter.clone().unwrap_or_default();
+    cfg.generated = a
+        .generated
+        .iter()
+        .map(|g| parse_generated(g))
+        .collect::<Result<_, _>>()?;
     cfg.cache_dir = a.cache.clone();
     cfg.error_maps = !a.no_maps;
     cfg.sweep.planes = a.sweep_planes;
@@ -766,14 +837,15 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
         None => Config::default(),
     };
     cfg.planemap = planemap::config::with_overrides(&config, &a.overrides)?;
-    let scenes = if a.scenes.is_empty() {
+    // Generated scenes alone when no scene path is given with them.
+    let scenes = if a.scenes.is_empty() && cfg.generated.is_empty() {
         vec![PathBuf::from("scenes")]
     } else {
         a.scenes.clone()
     };
     let files = collect_scene_files(&scenes)?;
     let results = run_bench(&files, &cfg, &a.output, progress)?;
-    println!("{}", planemap::bench::report::markdown(&results));
+    println!("{}", planemap::bench::markdown(&results));
     println!(
         "wrote results.json, results.md, accuracy.png, time.png and maps/ to {}",
         a.output.display()
@@ -786,7 +858,11 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
         let dir = record(&results, &a.output, root, &info)?;
         println!("recorded the run in {}", dir.display());
         let link = dir.to_string_lossy().replace('\\', "/");
-        if update_readme(std::path::Path::new("README.md"), &results, &info, &link)? {
+        // README.md's table is the scene files': generated scenes stay in results.md.
+        let files = results.subset(false);
+        if files.scenes.is_empty() {
+            println!("README.md's results table shows scene files: left as it is");
+        } else if update_readme(std::path::Path::new("README.md"), &files, &info, &link)? {
             println!("updated the results table of README.md");
         }
     }

@@ -6,9 +6,15 @@
 //!
 //! Every method's depth maps are fused by the same [`crate::pipeline::fuse()`] (planemap's own
 //! run does exactly that), so the point-cloud scores compare depth maps, not fusion rules.
+//!
+//! Besides scene files, [`BenchConfig::generated`] asks for procedural scenes
+//! ([`crate::synth::generate`]): each is drawn, written to `OUT/generated/NAME.toml` and then
+//! cached, run and scored exactly like a file; [`markdown`] reports them under their own
+//! heading, per kind, with the 10th-percentile and the worst view beside the mean.
 
 pub mod cache;
 pub mod font;
+pub mod generated;
 pub mod record;
 pub mod report;
 
@@ -34,7 +40,13 @@ use crate::scene::Scene;
 
 use metrics::{
     cloud_scores, depth_counts, has_depth, peak_memory_bytes, reset_peak_memory,
-    resident_memory_bytes, segmentation, CloudScores, DepthCounts, MeshDistance, Segmentation,
+    resident_memory_bytes, segmentation, view_collapsed, CloudScores, Collapses, DepthCounts,
+    MeshDistance, Segmentation,
+};
+
+pub use generated::{
+    generated_markdown, kind_summaries, markdown, parse_generated, GeneratedSet, GeneratedTag,
+    KindSummary,
 };
 
 /// Errors of the benchmark.
@@ -180,8 +192,11 @@ pub struct BenchConfig {
     pub methods: Vec<Method>,
     /// Image size override for every scene (`None` = each scene's own).
     pub size: Option<(u32, u32)>,
-    /// Only scenes whose name, file stem or category is in this list (empty = all).
+    /// Only scene files whose name, file stem or category is in this list (empty = all);
+    /// generated scenes are chosen by [`BenchConfig::generated`] alone.
     pub scene_filter: Vec<String>,
+    /// Generated scenes to run after the scene files (`--generated KIND:COUNT@FIRST`).
+    pub generated: Vec<GeneratedSet>,
     /// Where rendered scenes are cached (default `OUT/cache`).
     pub cache_dir: Option<PathBuf>,
     /// planemap config (for both planemap methods).
@@ -202,6 +217,7 @@ impl Default for BenchConfig {
             methods: Method::DEFAULT.to_vec(),
             size: None,
             scene_filter: Vec::new(),
+            generated: Vec::new(),
             cache_dir: None,
             planemap: Config::default(),
             sweep: bench_sweep_config(),
@@ -258,6 +274,9 @@ pub struct MethodResult {
     pub views: Vec<(String, DepthCounts)>,
     /// Plane segmentation (methods with global plane labels only).
     pub segmentation: Option<Segmentation>,
+    /// Views collapsed to one plane label ([`metrics::view_collapsed`]; methods with global
+    /// plane labels only).
+    pub collapse: Option<Collapses>,
     /// Fused point cloud against the ground-truth mesh.
     pub cloud: CloudScores,
     /// Wall-clock seconds per stage, in order.
@@ -296,6 +315,9 @@ pub struct SceneResult {
     pub median_depth: f64,
     /// Results per method.
     pub methods: Vec<MethodResult>,
+    /// Set for a generated scene (absent from results.json for scene files).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub generated: Option<GeneratedTag>,
 }
 
 /// A whole benchmark run.
@@ -404,8 +426,32 @@ pub fn run_bench(
     std::fs::create_dir_all(out).map_err(|e| io_err(out, e))?;
     let cache_root = cfg.cache_dir.clone().unwrap_or_else(|| out.join("cache"));
     std::fs::create_dir_all(&cache_root).map_err(|e| io_err(&cache_root, e))?;
+    let mut jobs: Vec<(PathBuf, Option<GeneratedTag>)> =
+        scene_files.iter().map(|f| (f.clone(), None)).collect();
+    let drawn = generated::write_generated(&cfg.generated, &out.join("generated"))?;
+    if !drawn.is_empty() {
+        // Before any work: a scene file named like a generated scene would share its output
+        // folders.
+        let names: std::collections::BTreeSet<String> = drawn
+            .iter()
+            .filter_map(|(f, _)| f.file_stem().map(|s| s.to_string_lossy().into_owned()))
+            .collect();
+        for file in scene_files {
+            let spec = crate::synth::SceneSpec::from_path(file)?;
+            if names.contains(&spec.name) {
+                return Err(BenchError::Option(format!(
+                    "{}: scene {} has the name of a generated scene of this run (their \
+                     outputs would overwrite each other); leave the file out",
+                    file.display(),
+                    spec.name
+                )));
+            }
+        }
+    }
+    jobs.extend(drawn);
     let mut scenes = Vec::new();
-    for file in scene_files {
+    for (file, generated) in &jobs {
+        let file = file.as_path();
         let spec = crate::synth::SceneSpec::from_path(file)?;
         check_scene_name(&spec.name, file)?;
         let category = if spec.category.is_empty() {
@@ -417,7 +463,8 @@ pub fn run_bench(
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
-        if !cfg.scene_filter.is_empty()
+        if generated.is_none()
+            && !cfg.scene_filter.is_empty()
             && !cfg
                 .scene_filter
                 .iter()
@@ -427,7 +474,8 @@ pub fn run_bench(
         }
         progress.println(&format!("scene {} ({category})", spec.name));
         let cached = cache::render_cached(file, cfg.size, &cache_root, progress)?;
-        let result = bench_scene(&cached, &category, file, cfg, out, progress)?;
+        let mut result = bench_scene(&cached, &category, file, cfg, out, progress)?;
+        result.generated = generated.clone();
         for m in &result.methods {
             progress.println(&format!(
                 "  {:<17} depth within 1%: {:5.1}%  F: {:5.1}%  {:6.1} s",
@@ -446,7 +494,7 @@ pub fn run_bench(
             scenes: scenes.clone(),
             seconds: start.elapsed().as_secs_f64(),
         };
-        report::write_reports(&partial, out)?;
+        generated::write_reports(&partial, out)?;
     }
     if scenes.is_empty() {
         return Err(BenchError::Option(
@@ -460,7 +508,7 @@ pub fn run_bench(
         scenes,
         seconds: start.elapsed().as_secs_f64(),
     };
-    report::write_reports(&results, out)?;
+    generated::write_reports(&results, out)?;
     Ok(results)
 }
 
@@ -523,6 +571,7 @@ fn bench_scene(
                     nonplanar_depth: DepthCounts::default(),
                     views: Vec::new(),
                     segmentation: None,
+                    collapse: None,
                     cloud: CloudScores::default(),
                     stages: Vec::new(),
                     seconds,
@@ -557,6 +606,7 @@ fn bench_scene(
         render_seconds: cached.render_seconds,
         median_depth,
         methods,
+        generated: None,
     })
 }
 
@@ -838,7 +888,23 @@ fn score(
         total
     };
     let (planar_depth, nonplanar_depth) = (split(true), split(false));
-    let seg = if pred.views.iter().all(|v| v.labels.is_some()) {
+    let labelled = pred.views.iter().all(|v| v.labels.is_some());
+    let collapse = labelled.then(|| {
+        let mut c = Collapses::default();
+        for v in &pred.views {
+            let labels = v.labels.as_deref().unwrap_or(&[]);
+            match view_collapsed(labels, &gt[v.view_index].planes) {
+                Some(true) => {
+                    c.checked += 1;
+                    c.collapsed.push(scene.views[v.view_index].name.clone());
+                }
+                Some(false) => c.checked += 1,
+                None => {}
+            }
+        }
+        c
+    });
+    let seg = if labelled {
         let pairs: Vec<(&[Option<u32>], &[u16])> = pred
             .views
             .iter()
@@ -860,6 +926,7 @@ fn score(
         nonplanar_depth,
         views: per_view,
         segmentation: seg,
+        collapse,
         cloud: cloud_scores(&pred.fused, mesh, reference, tolerance),
         stages: Vec::new(),
         seconds: 0.0,

@@ -228,6 +228,63 @@ pub fn segmentation<'a>(
     seg
 }
 
+/// A view has collapsed when one plane label covers more than this share of its pixels …
+pub const COLLAPSE_LABEL_SHARE: f64 = 0.8;
+/// … while its ground truth shows at least [`COLLAPSE_GT_PLANES`] planes that each cover more
+/// than this share of the view (issue 35: "no single plane labels more than 80 % of a view
+/// whose ground truth shows three or more planes of over 5 % each").
+pub const COLLAPSE_GT_PLANE_SHARE: f64 = 0.05;
+/// Ground-truth planes (each over [`COLLAPSE_GT_PLANE_SHARE`]) a view must show to be checked
+/// for a collapse.
+pub const COLLAPSE_GT_PLANES: usize = 3;
+
+/// Views checked for a collapse ([`view_collapsed`]) and those that collapsed.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Collapses {
+    /// Views whose ground truth shows at least [`COLLAPSE_GT_PLANES`] planes of over
+    /// [`COLLAPSE_GT_PLANE_SHARE`] of the view each.
+    pub checked: u32,
+    /// Of those, the views (names) where one label covers over [`COLLAPSE_LABEL_SHARE`] of
+    /// the view.
+    pub collapsed: Vec<String>,
+}
+
+impl Collapses {
+    /// Adds another set of views, their names prefixed with `prefix` (e.g. `SCENE/`).
+    pub fn add(&mut self, o: &Collapses, prefix: &str) {
+        self.checked += o.checked;
+        self.collapsed
+            .extend(o.collapsed.iter().map(|v| format!("{prefix}{v}")));
+    }
+}
+
+/// Whether one view collapsed to one plane: `None` when its ground-truth plane ids
+/// (`gt_planes`, 0 = no plane) show fewer than [`COLLAPSE_GT_PLANES`] planes of over
+/// [`COLLAPSE_GT_PLANE_SHARE`] of the view (the view is not checked), else whether one
+/// label of `labels` (`None` = no plane at the pixel) covers over [`COLLAPSE_LABEL_SHARE`]
+/// of it. Shares are of all the view's pixels, sky included, so a view that is mostly sky
+/// cannot collapse on the few planes it shows.
+pub fn view_collapsed(labels: &[Option<u32>], gt_planes: &[u16]) -> Option<bool> {
+    let n = gt_planes.len().max(1) as f64;
+    let mut gt: BTreeMap<u16, u64> = BTreeMap::new();
+    for &g in gt_planes.iter().filter(|&&g| g != 0) {
+        *gt.entry(g).or_default() += 1;
+    }
+    let shown = gt
+        .values()
+        .filter(|&&c| c as f64 > COLLAPSE_GT_PLANE_SHARE * n)
+        .count();
+    if shown < COLLAPSE_GT_PLANES {
+        return None;
+    }
+    let mut count: HashMap<u32, u64> = HashMap::new();
+    for l in labels.iter().flatten() {
+        *count.entry(*l).or_default() += 1;
+    }
+    let largest = count.values().copied().max().unwrap_or(0);
+    Some(largest as f64 > COLLAPSE_LABEL_SHARE * n)
+}
+
 /// Exact point-to-triangle distances to a mesh, up to a cap: triangles are binned into a
 /// uniform grid over their bounding boxes grown by the cap, so a query only tests the
 /// triangles of its cell. Distances beyond the cap are reported as the cap.
@@ -466,6 +523,35 @@ pub fn reset_peak_memory() -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_view_collapses_when_one_label_covers_it_against_three_planes() {
+        // 100 pixels: ground-truth planes 1 (50 px), 2 (30), 3 (6) and sky (14).
+        let mut gt = vec![0u16; 100];
+        gt[..50].fill(1);
+        gt[50..80].fill(2);
+        gt[80..86].fill(3);
+        // 81 pixels of label 7: collapsed (81 > 80 % of all 100 pixels).
+        let mut labels: Vec<Option<u32>> = vec![Some(7); 81];
+        labels.extend(std::iter::repeat_n(None, 19));
+        assert_eq!(view_collapsed(&labels, &gt), Some(true));
+        // Exactly 80 %: not over the share.
+        labels[80] = Some(9);
+        assert_eq!(view_collapsed(&labels, &gt), Some(false));
+        // Plane 3 at exactly 5 % is not shown: two planes, the view is not checked.
+        gt[85] = 0;
+        assert_eq!(view_collapsed(&labels, &gt), None);
+        // Sums over views, names prefixed.
+        let mut all = Collapses::default();
+        let one = Collapses {
+            checked: 2,
+            collapsed: vec!["v1.png".into()],
+        };
+        all.add(&one, "a/");
+        all.add(&one, "b/");
+        assert_eq!(all.checked, 4);
+        assert_eq!(all.collapsed, vec!["a/v1.png", "b/v1.png"]);
+    }
 
     #[test]
     fn depth_off_by_exactly_one_percent() {

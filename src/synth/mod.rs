@@ -14,6 +14,7 @@
 //! Everything is a pure function of the spec and the seed: images, ground truth and points
 //! are bit-identical for any number of threads.
 
+pub mod generate;
 mod render;
 mod sparse;
 mod spec;

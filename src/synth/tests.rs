@@ -695,6 +695,81 @@ fn noisy_positions_have_the_configured_spread() {
 }
 
 #[test]
+fn polygons_render_flat_with_exact_depth_and_are_checked() {
+    // A camera at the origin looking along +y at a pentagon in the plane y = 5 tilted about
+    // x (normal (0, −1, 1)/√2 · …), and a back-facing triangle beside it.
+    let text = r#"
+name = "polygons"
+[camera]
+width = 101
+height = 101
+focal_px = 100.0
+[render]
+antialias = 1
+image_noise = 0.0
+exposure_jitter = 0.0
+[materials.m]
+color = [0.5, 0.5, 0.5]
+[[objects]]
+type = "polygon"
+name = "pentagon"
+material = "m"
+vertices = [[-1.0, 5.0, -1.0], [1.0, 5.0, -1.0], [1.5, 6.0, 0.0], [0.0, 7.0, 1.0], [-1.5, 6.0, 0.0]]
+[[objects]]
+type = "polygon"
+name = "away"
+material = "m"
+vertices = [[2.0, 5.0, 0.0], [3.0, 5.0, 1.0], [4.0, 5.0, 0.0]]
+[[rigs]]
+type = "list"
+views = [{ position = [0.0, 0.0, 0.0], target = [0.0, 1.0, 0.0] }]
+"#;
+    let spec = SceneSpec::from_toml_str(text, "polygons").unwrap();
+    let scene = render(&spec, &RenderOptions::default(), &quiet).unwrap();
+    let v = &scene.views[0];
+    let at = |x: usize, y: usize| (v.depth[y * 101 + x] as f64, v.plane_id[y * 101 + x]);
+    // The plane through the pentagon: y − z = 6, i.e. depth y with z = −0.01·(row + 0.5 − 50.5)·y.
+    for (x, row) in [(50, 50), (45, 40), (55, 60)] {
+        let dz = -(row as f64 + 0.5 - 50.5) / 100.0;
+        let want = 6.0 / (1.0 - dz);
+        let (z, id) = at(x, row);
+        assert!((z - want).abs() < 1e-5, "({x}, {row}): depth {z} vs {want}");
+        assert!(id > 0);
+    }
+    let n = scene.planes[at(50, 50).1 as usize - 1].plane.normal;
+    assert!(
+        (n - Vector3::new(0.0, -1.0, 1.0).normalize()).norm() < 1e-9,
+        "{n:?}"
+    );
+    // The triangle's vertices run clockwise seen from the camera: it is invisible.
+    let (z, id) = at(50 + 30, 50 - 5);
+    assert_eq!((z, id), (0.0, 0));
+    // Both are in the ground-truth mesh: three triangles of the fan and one.
+    assert_eq!(scene.mesh_triangles.len(), 4);
+
+    // A concave or bent outline names the object.
+    for (from, to, want) in [
+        ("[1.5, 6.0, 0.0]", "[0.5, 5.5, -0.5]", "not strictly convex"),
+        (
+            "[0.0, 7.0, 1.0]",
+            "[0.0, 7.0, 1.5]",
+            "off the polygon's plane",
+        ),
+        (
+            "[[2.0, 5.0, 0.0], [3.0, 5.0, 1.0], [4.0, 5.0, 0.0]]",
+            "[[2.0, 5.0, 0.0], [3.0, 5.0, 1.0]]",
+            "at least 3",
+        ),
+    ] {
+        let bad = text.replacen(from, to, 1);
+        let err = SceneSpec::from_toml_str(&bad, "polygons")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(want) && err.contains("(polygon "), "{err}");
+    }
+}
+
+#[test]
 fn huge_sizes_and_counts_are_errors_not_aborts() {
     // An image side over the limit, in the spec and as a render option.
     let text = DEMO.replacen("width = 160", "width = 100000", 1);

@@ -3,7 +3,7 @@
 
 use nalgebra::{Rotation3, Vector3};
 
-use super::spec::{ObjectSpec, SceneSpec, BOX_FACES};
+use super::spec::{polygon_normal, ObjectSpec, SceneSpec, BOX_FACES};
 use super::texture::{mix64, Material};
 use crate::geometry::Plane;
 
@@ -30,6 +30,16 @@ pub(crate) enum Shape {
     },
     /// Sphere.
     Sphere { center: V3, radius: f64 },
+    /// Triangle `a b c` (counter-clockwise seen from the outward side) of a polygon whose
+    /// texture coordinates are measured from `origin` along the in-plane unit axes `u`, `v`.
+    Triangle {
+        a: V3,
+        b: V3,
+        c: V3,
+        origin: V3,
+        u: V3,
+        v: V3,
+    },
     /// Open cylinder side from `base` along unit `axis` for `height`; `e1`, `e2` span the
     /// cross-section.
     CylinderSide {
@@ -375,6 +385,56 @@ impl World {
                         }
                     }
                 }
+                ObjectSpec::Polygon {
+                    material,
+                    vertices,
+                    two_sided,
+                    ..
+                } => {
+                    let n = polygon_normal(vertices).expect("polygons validated");
+                    let pts: Vec<V3> = vertices.iter().map(|v| V3::from(*v)).collect();
+                    let centroid = pts.iter().sum::<V3>() / pts.len() as f64;
+                    let (pi, side) = merger.assign(&centroid, &n, base_label.clone());
+                    let gp = merger.planes[pi].plane;
+                    let n2 = gp.normal * side;
+                    let snapped: Vec<V3> = pts
+                        .iter()
+                        .map(|p| p - gp.normal * gp.signed_distance(p))
+                        .collect();
+                    // Texture axes as a quad's: v up the plane (world z, or y when the
+                    // polygon is horizontal), u = v × n; s and t from the lowest corner.
+                    let up = if n2.z.abs() < 0.9 { V3::z() } else { V3::y() };
+                    let v = (up - n2 * n2.dot(&up)).normalize();
+                    let u = v.cross(&n2);
+                    let s0 = snapped
+                        .iter()
+                        .map(|p| p.dot(&u))
+                        .fold(f64::INFINITY, f64::min);
+                    let t0 = snapped
+                        .iter()
+                        .map(|p| p.dot(&v))
+                        .fold(f64::INFINITY, f64::min);
+                    let origin = u * s0 + v * t0;
+                    for k in 1..snapped.len() - 1 {
+                        prims.push(Primitive {
+                            shape: Shape::Triangle {
+                                a: snapped[0],
+                                b: snapped[k],
+                                c: snapped[k + 1],
+                                origin,
+                                u,
+                                v,
+                            },
+                            plane: Some(pi),
+                            side,
+                            two_sided: *two_sided,
+                            material: mat_index(material),
+                            priority: prio,
+                            lo: V3::zeros(),
+                            hi: V3::zeros(),
+                        });
+                    }
+                }
             }
         }
         for p in &mut prims {
@@ -521,6 +581,18 @@ impl World {
                 let q = o + d * t - center;
                 (q.norm_squared() <= radius * radius).then_some(t)
             }
+            Shape::Triangle { a, b, c, .. } => {
+                let t = self.plane_t(p, o, d)?;
+                let x = o + d * t;
+                // Inside when x is on the inner side of all three edges (the fan's shared
+                // edges get a little slack, so no ray slips between two triangles).
+                let n = (b - a).cross(&(c - a));
+                let eps = -1e-9 * n.norm();
+                ((b - a).cross(&(x - a)).dot(&n) >= eps
+                    && (c - b).cross(&(x - b)).dot(&n) >= eps
+                    && (a - c).cross(&(x - c)).dot(&n) >= eps)
+                    .then_some(t)
+            }
             Shape::Sphere { center, radius } => {
                 let oc = o - center;
                 let a = d.norm_squared();
@@ -612,6 +684,10 @@ impl World {
                 let n = self.planes[p.plane.expect("planar")].plane.normal * p.side;
                 (n, q.dot(u), q.dot(v))
             }
+            Shape::Triangle { origin, u, v, .. } => {
+                let n = self.planes[p.plane.expect("planar")].plane.normal * p.side;
+                (n, x.dot(u) - origin.dot(u), x.dot(v) - origin.dot(v))
+            }
             Shape::Sphere { center, radius } => {
                 let n = (x - center) / *radius;
                 let lon = n.y.atan2(n.x);
@@ -688,6 +764,11 @@ impl World {
                         tris.push([base, base + 1 + k, base + 1 + next]);
                         ids.push(id);
                     }
+                }
+                Shape::Triangle { a, b, c, .. } => {
+                    verts.extend([*a, *b, *c]);
+                    tris.push([base, base + 1, base + 2]);
+                    ids.push(id);
                 }
                 Shape::Sphere { center, radius } => {
                     let rings = SEGMENTS / 2;
@@ -785,6 +866,7 @@ fn bounds(shape: &Shape) -> (V3, V3) {
             let e = (u.abs() + v.abs()) * *radius;
             (center - e, center + e)
         }
+        Shape::Triangle { a, b, c, .. } => (a.inf(b).inf(c), a.sup(b).sup(c)),
         Shape::Sphere { center, radius } => {
             (center - V3::repeat(*radius), center + V3::repeat(*radius))
         }
