@@ -134,10 +134,10 @@ pub struct AxesConfig {
     /// horizontal is made exactly horizontal ([`DominantAxes::level_to`]), before and after
     /// each refit. Walls of buildings are vertical and floors level; a fit to the sparse
     /// points tilts them by the points' noise and mix (2.4° on a generated street, where
-    /// the floor had almost no points). Off until measured on the test split: on the
-    /// generated development scenes it gave streets +8.8 and +11.7 points within 1 %, the
-    /// others within ±5 (docs/notes/generalisation.md); the 13 scenes 90.7 → 90.6. A roll
-    /// common to every camera tilts the result.
+    /// the floor had almost no points). Off: on the generated development scenes it gave
+    /// streets +8.8 and +11.7 points within 1 %, but on the test split street-1000 −2.1 and
+    /// interior-1000 −2.7 (docs/notes/generalisation.md). A roll common to every camera
+    /// tilts the result.
     pub level_to_camera_vertical: bool,
     /// The largest angle, in degrees in [0, 45), by which `level_to_camera_vertical` moves
     /// a direction: a direction further from vertical or horizontal (a roof slope) is kept.
