@@ -59,22 +59,9 @@ fn run(dir: &Path, out: &Path, extra: &[&str]) -> Output {
         .unwrap()
 }
 
+/// A depth map's values, read with the project's own PFM reader.
 fn read_pfm(path: &Path) -> Vec<f32> {
-    let bytes = std::fs::read(path).unwrap();
-    // Three header lines: "Pf", "W H", scale.
-    let mut newlines = 0;
-    let start = bytes
-        .iter()
-        .position(|&b| {
-            newlines += (b == b'\n') as u32;
-            newlines == 3
-        })
-        .unwrap()
-        + 1;
-    bytes[start..]
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect()
+    planemap::io::pfm::read_pfm_path(path).unwrap().data
 }
 
 // --- 1. output names -----------------------------------------------------------------------
@@ -227,13 +214,13 @@ fn three_channel_ground_truth_depth_is_an_error_naming_the_file() {
     synth_tiny_demo(&dir);
     let gt = dir.join("gt/depth/view_0000.pfm");
     let depth = read_pfm(&gt);
-    let mut pfm = b"PF\n96 72\n-1.0\n".to_vec();
-    for d in depth {
-        for _ in 0..3 {
-            pfm.extend_from_slice(&d.to_le_bytes());
-        }
-    }
-    std::fs::write(&gt, pfm).unwrap();
+    let rgb = planemap::ImageF32 {
+        width: 96,
+        height: 72,
+        channels: 3,
+        data: depth.iter().flat_map(|&d| [d; 3]).collect(),
+    };
+    planemap::io::pfm::write_pfm_path(&gt, &rgb).unwrap();
     let stderr = clean_failure(&run(&dir, &tmp.path().join("out"), &["-q", "--views", "0"]));
     assert!(stderr.contains("view_0000.pfm"), "{stderr}");
     assert!(

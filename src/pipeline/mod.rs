@@ -201,11 +201,20 @@ fn write_undistorted_model(scene: &Scene, dir: &Path) -> Result<(), PipelineErro
     // whose point is behind its camera (possible in a user's model) has no 2D position and
     // is left out of the written model rather than failing the run.
     let mut kept = scene.clone();
+    let mut observations = Vec::with_capacity(kept.cloud.len());
     let mut dropped = 0usize;
     for (track, p) in kept.cloud.tracks.iter_mut().zip(&scene.cloud.positions) {
+        let mut xy = Vec::with_capacity(track.len());
         let before = track.len();
-        track.retain(|&v| scene.views[v as usize].project(p).is_some());
+        track.retain(|&v| match scene.views[v as usize].project(p) {
+            Some((q, _)) => {
+                xy.push([q.x, q.y]);
+                true
+            }
+            None => false,
+        });
         dropped += before - track.len();
+        observations.push(xy);
     }
     if dropped > 0 {
         tracing::warn!(
@@ -213,7 +222,8 @@ fn write_undistorted_model(scene: &Scene, dir: &Path) -> Result<(), PipelineErro
             dir.display()
         );
     }
-    let model = ColmapModel::from_scene(&kept, None).map_err(|e| write_err(dir, e))?;
+    let model =
+        ColmapModel::from_scene(&kept, Some(&observations)).map_err(|e| write_err(dir, e))?;
     write_model_bin(dir, &model).map_err(|e| write_err(dir, e))?;
     let path = dir.join("cameras.txt");
     write_atomic::<std::io::Error, _>(&path, |f: &mut BufWriter<File>| {

@@ -118,12 +118,10 @@ pub fn sparse_stages(scene: &Scene, cfg: &Config) -> Result<SparseStages, Pipeli
     let mut axes = dominant_axes(&oriented, &cfg.axes)?;
     // The cameras' vertical, when they were held upright (or walked with a known wall).
     let m = axes.num_manhattan.min(axes.directions.len());
-    let camera_up = crate::axes::camera_vertical(&scene.views)
-        .or_else(|| crate::axes::camera_vertical_given(&scene.views, &axes.directions[..m]));
-    if cfg.axes.camera_vertical {
-        if let Some(up) = crate::axes::camera_vertical_given(&scene.views, &axes.directions[..m]) {
-            axes.complete_with_vertical(&up, &oriented.normals, cfg.axes.refine_angle_deg);
-        }
+    let given = crate::axes::camera_vertical_given(&scene.views, &axes.directions[..m]);
+    let camera_up = crate::axes::camera_vertical(&scene.views).or(given);
+    if let (true, Some(up)) = (cfg.axes.camera_vertical, given) {
+        axes.complete_with_vertical(&up, &oriented.normals, cfg.axes.refine_angle_deg);
     }
     let level = |axes: &mut DominantAxes| {
         if let (true, Some(up)) = (cfg.axes.level_to_camera_vertical, camera_up) {
