@@ -52,6 +52,7 @@ pub mod hypotheses;
 pub mod planemap;
 pub mod classify;
 pub mod nonplanar;
+pub mod sky;
 pub mod pipeline;
 
 // Harness: scenes, scores, baselines, the benchmark and audits; never imported by a stage.

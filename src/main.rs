@@ -78,6 +78,21 @@ enum DiagCommand {
     /// energy, split into visibility, photo and smoothness.
     #[command(after_help = "Example:\n  planemap diag energy ws/room 0 5 --pairs 5 --maps maps/")]
     Energy(planemap::diag::energy::EnergyArgs),
+    /// Existing runs scored on a real set's held-out points, agreement and ground.
+    #[command(
+        after_help = "Example:\n  planemap diag heldout ../shared/data/real/castle-P19 out/ sweep-out/depth --per-view"
+    )]
+    Heldout(planemap::diag::heldout::HeldoutArgs),
+    /// Every offered label's visibility and photo costs at chosen pixels of a view.
+    #[command(
+        after_help = "Example:\n  planemap diag pixel ../shared/data/real/castle-P19 0 --pixel 100,480 --pixel 600,100"
+    )]
+    Pixel(planemap::diag::pixel::PixelArgs),
+    /// The sky stage's mask against the ground truth: sky caught, surfaces taken for sky.
+    #[command(
+        after_help = "Example:\n  planemap diag sky ws/exterior ws/room --set sky.max_std=0.03"
+    )]
+    Sky(planemap::diag::sky::SkyArgs),
     /// Data costs of the non-planar label against the cheapest plane on non-planar pixels
     /// whose sweep depth is right.
     #[command(after_help = "Example:\n  planemap diag nonplanar ws/statues 2")]
@@ -186,6 +201,11 @@ struct BenchArgs {
     /// their own heading.
     #[arg(long, value_delimiter = ',', value_name = "KIND:COUNT[@FIRST_SEED]")]
     generated: Vec<String>,
+    /// Real photograph sets (repeatable or comma-separated): folders with sparse/, images/
+    /// and heldout.json, scored on their held-out points (real.md, real.json and picture
+    /// sheets under real/). Alone, they are all that runs.
+    #[arg(long, value_delimiter = ',', value_name = "DIR")]
+    real: Vec<PathBuf>,
     /// Keep the run: results.md, results.json and a README (date, commit, command, machine)
     /// under RESULTS_DIR/DATE-COMMIT/, and update README.md's results table (between its
     /// markers) when run from the project's folder.
@@ -837,6 +857,18 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
         None => Config::default(),
     };
     cfg.planemap = planemap::config::with_overrides(&config, &a.overrides)?;
+    if !a.real.is_empty() && a.scenes.is_empty() && cfg.generated.is_empty() {
+        if a.record {
+            anyhow::bail!("--record keeps synthetic runs; real sets write real.md in the output");
+        }
+        let results = planemap::bench::real::run_real_bench(&a.real, &cfg, &a.output, progress)?;
+        println!("{}", planemap::bench::real::real_markdown(&results));
+        println!(
+            "wrote real.json, real.md and picture sheets under real/ to {}",
+            a.output.display()
+        );
+        return Ok(());
+    }
     // Generated scenes alone when no scene path is given with them.
     let scenes = if a.scenes.is_empty() && cfg.generated.is_empty() {
         vec![PathBuf::from("scenes")]
@@ -846,6 +878,10 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
     let files = collect_scene_files(&scenes)?;
     let results = run_bench(&files, &cfg, &a.output, progress)?;
     println!("{}", planemap::bench::markdown(&results));
+    if !a.real.is_empty() {
+        let real = planemap::bench::real::run_real_bench(&a.real, &cfg, &a.output, progress)?;
+        println!("{}", planemap::bench::real::real_markdown(&real));
+    }
     println!(
         "wrote results.json, results.md, accuracy.png, time.png and maps/ to {}",
         a.output.display()
@@ -892,6 +928,9 @@ fn diag(d: DiagCommand) -> Result<()> {
         DiagCommand::Sweep(a) => diag::sweep::run(&a),
         DiagCommand::Votes(a) => diag::votes::run(&a),
         DiagCommand::ScoreSplit(a) => diag::split::run(&a),
+        DiagCommand::Heldout(a) => diag::heldout::run(&a),
+        DiagCommand::Sky(a) => diag::sky::run(&a),
+        DiagCommand::Pixel(a) => diag::pixel::run(&a),
     };
     r.map_err(|e| anyhow::anyhow!(e))
 }

@@ -26,6 +26,7 @@ const LAYERS: [(&str, &[&str]); 3] = [
             "planemap",
             "classify",
             "nonplanar",
+            "sky",
             "pipeline",
         ],
     ),

@@ -15,6 +15,7 @@
 pub mod cache;
 pub mod font;
 pub mod generated;
+pub mod real;
 pub mod record;
 pub mod report;
 
@@ -478,10 +479,11 @@ pub fn run_bench(
         result.generated = generated.clone();
         for m in &result.methods {
             progress.println(&format!(
-                "  {:<17} depth within 1%: {:5.1}%  F: {:5.1}%  {:6.1} s",
+                "  {:<17} depth within 1%: {:5.1}%  F: {:5.1}%  sky given a depth: {:5.1}%  {:6.1} s",
                 m.method,
                 100.0 * m.depth.accuracy(1),
                 100.0 * m.cloud.f_score,
+                100.0 * m.depth.empty_with_depth(),
                 m.seconds
             ));
         }

@@ -28,7 +28,7 @@ pub(super) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BenchError> 
     std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
 }
 
-fn save_png(img: &RgbImage, path: &Path) -> Result<(), BenchError> {
+pub(super) fn save_png(img: &RgbImage, path: &Path) -> Result<(), BenchError> {
     let tmp = path.with_extension("tmp.png");
     img.save(&tmp).map_err(|e| io_err(&tmp, e))?;
     std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
@@ -120,13 +120,13 @@ pub fn summary_table(results: &BenchResults) -> String {
 fn details_table(results: &BenchResults) -> String {
     let mut s = String::new();
     s.push_str("\nAll metrics:\n\n");
-    s.push_str("| scene | method | ≤0.5% | ≤1% | ≤2% | MAE | complete | normal° | ≤10° | planes | over/under | τ | cloud acc | cloud comp | F | time s | peak MB (+growth) |\n");
-    s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    s.push_str("| scene | method | ≤0.5% | ≤1% | ≤2% | MAE | complete | sky given depth | normal° | ≤10° | planes | over/under | τ | cloud acc | cloud comp | F | time s | peak MB (+growth) |\n");
+    s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for sc in &results.scenes {
         for m in &sc.methods {
             if let Some(e) = &m.error {
                 s.push_str(&format!(
-                    "| {} | {} | failed: {} |||||||||||||||\n",
+                    "| {} | {} | failed: {} ||||||||||||||||\n",
                     sc.name,
                     m.method,
                     e.replace('|', "/").lines().next().unwrap_or("")
@@ -149,7 +149,7 @@ fn details_table(results: &BenchResults) -> String {
             };
             let within10 = d.normal_within_10deg as f64 / d.normal_pixels.max(1) as f64;
             s.push_str(&format!(
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
                 sc.name,
                 m.method,
                 pct(d.accuracy(0)),
@@ -157,6 +157,11 @@ fn details_table(results: &BenchResults) -> String {
                 pct(d.accuracy(2)),
                 num(d.mean_abs_error(), 3),
                 pct(d.completeness()),
+                if d.empty_pixels > 0 {
+                    pct(d.empty_with_depth())
+                } else {
+                    "–".into()
+                },
                 num(d.mean_normal_error_deg(), 1),
                 pct(within10),
                 seg,

@@ -3,17 +3,24 @@
 //!
 //! - [`energy`]: planemap's labelling against the best ground-truth-correct labelling under
 //!   the same energy, split into visibility, photo and smoothness;
+//! - [`heldout`]: existing runs scored on a real set's held-out points (the one audit on
+//!   real photographs rather than a synthetic workspace);
 //! - [`nonplanar`]: the data costs of the non-planar label against the cheapest plane on
 //!   non-planar pixels whose sweep depth is right;
 //! - [`sweep`]: the plane-sweep baseline's families and where its winner is wrong;
 //! - [`votes`]: where the photo-consistency sweep for plane hypotheses votes;
+//! - [`pixel`]: every offered label's data costs at chosen pixels (no ground truth needed);
+//! - [`sky`]: the sky stage's mask against the ground truth's empty pixels;
 //! - [`split`]: depth maps scored on planar and non-planar pixels, optionally inside a box.
 //!
 //! Each takes its options as a `clap` argument struct, loads the workspace with
 //! [`Workspace::open`], and prints its findings to standard output.
 
 pub mod energy;
+pub mod heldout;
 pub mod nonplanar;
+pub mod pixel;
+pub mod sky;
 pub mod split;
 pub mod sweep;
 pub mod votes;

@@ -34,6 +34,10 @@ pub struct DepthCounts {
     pub normal_error_sum_deg: f64,
     /// Of `normal_pixels`, those within 10° of the ground truth.
     pub normal_within_10deg: u64,
+    /// Pixels without a ground-truth surface (the sky, or the background beyond the scene).
+    pub empty_pixels: u64,
+    /// Of those, pixels the method gave a depth anyway.
+    pub empty_predicted: u64,
 }
 
 impl DepthCounts {
@@ -47,6 +51,8 @@ impl DepthCounts {
         self.abs_error_sum += o.abs_error_sum;
         self.rel_error_sum += o.rel_error_sum;
         self.normal_pixels += o.normal_pixels;
+        self.empty_pixels += o.empty_pixels;
+        self.empty_predicted += o.empty_predicted;
         self.normal_error_sum_deg += o.normal_error_sum_deg;
         self.normal_within_10deg += o.normal_within_10deg;
     }
@@ -54,6 +60,12 @@ impl DepthCounts {
     /// Share of ground-truth pixels within threshold `k` of [`DEPTH_THRESHOLDS`].
     pub fn accuracy(&self, k: usize) -> f64 {
         self.within[k] as f64 / self.gt_pixels.max(1) as f64
+    }
+
+    /// Share of the pixels without a ground-truth surface (sky, background) given a depth
+    /// (0 when there are none).
+    pub fn empty_with_depth(&self) -> f64 {
+        self.empty_predicted as f64 / self.empty_pixels.max(1) as f64
     }
 
     /// Share of ground-truth pixels given a depth.
@@ -99,6 +111,11 @@ pub fn depth_counts(
     let mut c = DepthCounts::default();
     for (p, (&z, &gz)) in pred_depth.iter().zip(gt_depth).enumerate() {
         if !has_depth(gz) {
+            // A NaN or infinite prediction is no depth, as elsewhere.
+            if gz == 0.0 {
+                c.empty_pixels += 1;
+                c.empty_predicted += has_depth(z) as u64;
+            }
             continue;
         }
         c.gt_pixels += 1;

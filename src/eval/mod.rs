@@ -6,6 +6,8 @@
 //! - [`metrics`]: the benchmark's metrics — depth accuracy at several thresholds,
 //!   completeness, normal error, plane segmentation, point-cloud accuracy / completeness /
 //!   F-score against the ground-truth mesh;
+//! - [`heldout`]: real photographs' sparse ground truth — held-out points, neighbouring
+//!   views' agreement, the ground's share of horizontal planes;
 //! - [`split`]: depth accuracy split by texture (the sweep baseline's scoring) and the
 //!   pixels another view also sees.
 
@@ -22,6 +24,7 @@ use crate::pipeline::ViewPlanemap;
 use crate::scene::Scene;
 use crate::workspace::GtPlaneRecord;
 
+pub mod heldout;
 pub mod metrics;
 pub mod split;
 
@@ -37,6 +40,14 @@ pub enum EvalError {
     /// planes.json is missing or malformed.
     #[error("{path}: {message}")]
     Planes {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// heldout.json is missing or malformed.
+    #[error("{path}: {message}")]
+    Heldout {
         /// The file.
         path: String,
         /// What went wrong.

@@ -10,6 +10,7 @@ use crate::hypotheses::HypothesesConfig;
 use crate::nonplanar::NonplanarConfig;
 use crate::normals::NormalsConfig;
 use crate::planemap::PlanemapConfig;
+use crate::sky::SkyConfig;
 
 /// Options of the α-expansion solve.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -82,6 +83,8 @@ pub struct Config {
     pub fusion: FusionConfig,
     /// The classifier-driven "non-planar" label (off by default).
     pub nonplanar: NonplanarConfig,
+    /// Sky: pixels that see no surface get no depth ([`crate::sky`]).
+    pub sky: SkyConfig,
 }
 
 impl Config {
@@ -119,6 +122,7 @@ impl Config {
         self.nonplanar
             .validate()
             .map_err(|e| PipelineError::Config(e.to_string()))?;
+        self.sky.validate().map_err(PipelineError::Config)?;
         let scale = self.solver.cost_scale;
         if !(scale.is_finite() && scale > 0.0 && scale <= MAX_COST_SCALE) {
             return Err(PipelineError::Config(format!(

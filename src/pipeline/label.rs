@@ -97,9 +97,37 @@ pub fn view_energy(
     Ok(energy)
 }
 
-/// Labels one view: builds its energy ([`view_energy`]) and minimises it by α-expansion.
-/// `scene` must be undistorted (PINHOLE) and `image` its image.
+/// Labels one view: builds its energy ([`view_energy`]), minimises it by α-expansion, then
+/// gives the sky no depth ([`crate::sky`]). `scene` must be undistorted (PINHOLE) and
+/// `image` its image.
 pub fn label_view(
+    scene: &Scene,
+    prepared: &Prepared,
+    view_index: usize,
+    image: &ImageF32,
+    cfg: &Config,
+) -> Result<ViewPlanemap, PipelineError> {
+    let mut result = label_planes(scene, prepared, view_index, image, cfg)?;
+    if cfg.sky.enabled {
+        let up = crate::sky::scene_vertical(&scene.views);
+        let sky = crate::sky::sky_mask(
+            &scene.views[view_index],
+            image,
+            &scene.cloud,
+            up.as_ref(),
+            &cfg.sky,
+        );
+        for (p, _) in sky.iter().enumerate().filter(|(_, &s)| s) {
+            result.labels[p] = NONPLANAR;
+            result.depth[p] = 0.0;
+            result.normals[p] = [0.0; 3];
+        }
+    }
+    Ok(result)
+}
+
+/// [`label_view`] before the sky stage.
+fn label_planes(
     scene: &Scene,
     prepared: &Prepared,
     view_index: usize,
