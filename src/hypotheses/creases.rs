@@ -48,6 +48,12 @@ pub struct CreaseHypothesesConfig {
     /// view at 10× the solve time; the default is the largest value that keeps every
     /// Manhattan scene's accuracy (docs/notes/hypotheses.md).
     pub min_view_votes_per_width: f64,
+    /// At most this many crease hypotheses are offered to one view, those it cast the most
+    /// votes for, a count; 0 = no cap. A bound on the second labelling's time, which is
+    /// linear in the labels: every view of the 13 scenes was offered at most 51 (thin), so
+    /// the cap changes none of them, while castle-P19's window reveals offered 33–146 per
+    /// view (docs/notes/real-photographs.md).
+    pub max_per_view: usize,
 }
 
 impl Default for CreaseHypothesesConfig {
@@ -59,6 +65,7 @@ impl Default for CreaseHypothesesConfig {
             max_normal_cos: 0.7,
             merge_r: 3.0,
             min_view_votes_per_width: 0.25,
+            max_per_view: 64,
         }
     }
 }
@@ -186,6 +193,8 @@ pub fn crease_hypotheses(
     }
     let min_votes = (cfg.min_votes_per_width * width as f64).ceil() as u64;
     let mut out: Vec<CreaseHypothesis> = Vec::new();
+    // Each hypothesis's votes per view, for the per-view cap.
+    let mut out_votes = Vec::new();
     for (k, map) in votes.iter().enumerate() {
         let count = |b: i64| map.get(&b).map_or(0, |e| e.0);
         for (&b, bin) in map {
@@ -229,10 +238,43 @@ pub fn crease_hypotheses(
                     },
                     views: seeing,
                 });
+                out_votes.push(per_view);
             }
         }
     }
-    Ok(out)
+    Ok(cap_per_view(out, &out_votes, cfg))
+}
+
+/// Keeps each view's `cfg.max_per_view` hypotheses with the most votes from it (ties to the
+/// lower id), drops the view from the others, then the hypotheses left with fewer than
+/// `cfg.min_views` views; ids are renumbered 0.. in order.
+fn cap_per_view<T: Copy + Ord>(
+    mut out: Vec<CreaseHypothesis>,
+    votes: &[Vec<T>],
+    cfg: &CreaseHypothesesConfig,
+) -> Vec<CreaseHypothesis> {
+    let cap = cfg.max_per_view;
+    if cap == 0 {
+        return out;
+    }
+    let num_views = votes.first().map_or(0, Vec::len);
+    for v in 0..num_views {
+        let mut seen: Vec<usize> = (0..out.len())
+            .filter(|&c| out[c].views.binary_search(&v).is_ok())
+            .collect();
+        if seen.len() <= cap {
+            continue;
+        }
+        seen.sort_by(|&a, &b| votes[b][v].cmp(&votes[a][v]).then(a.cmp(&b)));
+        for &c in &seen[cap..] {
+            out[c].views.retain(|&x| x != v);
+        }
+    }
+    out.retain(|c| c.views.len() >= cfg.min_views);
+    for (i, c) in out.iter_mut().enumerate() {
+        c.hypothesis.id = i as u32;
+    }
+    out
 }
 
 #[cfg(test)]

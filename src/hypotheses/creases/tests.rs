@@ -156,3 +156,53 @@ fn unlabelled_pixels_do_not_vote_and_bad_sizes_are_errors() {
     }];
     assert!(crease_hypotheses(&scene, &axes(), &[wall()], &lv, 0.01, &cfg).is_err());
 }
+
+#[test]
+fn each_view_keeps_the_crease_hypotheses_it_voted_for_most() {
+    let crease = |id: u32, views: Vec<usize>| CreaseHypothesis {
+        hypothesis: PlaneHypothesis {
+            id,
+            plane: Plane {
+                normal: Vector3::z(),
+                offset: id as f64,
+            },
+            axis: Some(2),
+            support: 0,
+        },
+        views,
+    };
+    let out = vec![
+        crease(0, vec![0, 1, 2]),
+        crease(1, vec![0, 1]),
+        crease(2, vec![1, 2]),
+    ];
+    // Votes [hypothesis][view].
+    let votes = vec![vec![5u32, 1, 9], vec![7, 8, 0], vec![0, 3, 2]];
+    let cfg = CreaseHypothesesConfig {
+        max_per_view: 1,
+        min_views: 1,
+        ..CreaseHypothesesConfig::default()
+    };
+    let capped = cap_per_view(out.clone(), &votes, &cfg);
+    // View 0 keeps 1 (7 > 5), view 1 keeps 1 (8), view 2 keeps 0 (9 > 2); 2 has no view.
+    let views: Vec<(u32, Vec<usize>)> = capped
+        .iter()
+        .map(|c| (c.hypothesis.id, c.views.clone()))
+        .collect();
+    assert_eq!(views, vec![(0, vec![2]), (1, vec![0, 1])]);
+    assert_eq!(
+        capped[1].hypothesis.plane.offset, 1.0,
+        "renumbered in order"
+    );
+    // No cap, or a cap no view reaches: unchanged.
+    let none = CreaseHypothesesConfig {
+        max_per_view: 0,
+        ..cfg
+    };
+    assert_eq!(cap_per_view(out.clone(), &votes, &none), out);
+    let loose = CreaseHypothesesConfig {
+        max_per_view: 3,
+        ..cfg
+    };
+    assert_eq!(cap_per_view(out.clone(), &votes, &loose), out);
+}
