@@ -207,7 +207,8 @@ struct BenchArgs {
     #[arg(long, value_delimiter = ',', value_name = "DIR")]
     real: Vec<PathBuf>,
     /// Keep the run: results.md, results.json and a README (date, commit, command, machine)
-    /// under RESULTS_DIR/DATE-COMMIT/, and update README.md's results table (between its
+    /// under RESULTS_DIR/DATE-COMMIT/ (real sets alone: real.md and real.json under
+    /// RESULTS_DIR/DATE-COMMIT-real/), and update README.md's results table (between its
     /// markers) when run from the project's folder.
     #[arg(long)]
     record: bool,
@@ -858,15 +859,23 @@ fn bench(a: BenchArgs, progress: &Progress) -> Result<()> {
     };
     cfg.planemap = planemap::config::with_overrides(&config, &a.overrides)?;
     if !a.real.is_empty() && a.scenes.is_empty() && cfg.generated.is_empty() {
-        if a.record {
-            anyhow::bail!("--record keeps synthetic runs; real sets write real.md in the output");
-        }
         let results = planemap::bench::real::run_real_bench(&a.real, &cfg, &a.output, progress)?;
         println!("{}", planemap::bench::real::real_markdown(&results));
         println!(
             "wrote real.json, real.md and picture sheets under real/ to {}",
             a.output.display()
         );
+        if a.record {
+            use planemap::bench::record::{record_real, update_readme_real, RunInfo};
+            let command: Vec<String> = std::env::args().collect();
+            let info = RunInfo::now(command.join(" "));
+            let dir = record_real(&results, &a.output, &a.results_dir, &info)?;
+            println!("recorded the run in {}", dir.display());
+            let link = dir.to_string_lossy().replace('\\', "/");
+            if update_readme_real(std::path::Path::new("README.md"), &results, &info, &link)? {
+                println!("updated the real-photograph table of README.md");
+            }
+        }
         return Ok(());
     }
     // Generated scenes alone when no scene path is given with them.

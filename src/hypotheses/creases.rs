@@ -258,18 +258,19 @@ fn cap_per_view<T: Copy + Ord>(
         return out;
     }
     let num_views = votes.first().map_or(0, Vec::len);
-    for v in 0..num_views {
+    // v indexes both the views' lists and the inner vote vectors.
+    (0..num_views).for_each(|v| {
         let mut seen: Vec<usize> = (0..out.len())
             .filter(|&c| out[c].views.binary_search(&v).is_ok())
             .collect();
         if seen.len() <= cap {
-            continue;
+            return;
         }
         seen.sort_by(|&a, &b| votes[b][v].cmp(&votes[a][v]).then(a.cmp(&b)));
         for &c in &seen[cap..] {
             out[c].views.retain(|&x| x != v);
         }
-    }
+    });
     out.retain(|c| c.views.len() >= cfg.min_views);
     for (i, c) in out.iter_mut().enumerate() {
         c.hypothesis.id = i as u32;
