@@ -3,7 +3,7 @@
 //! (`heldout.json`, see [`crate::eval::heldout`]), as in `../shared/data/real/` or as
 //! `tools/make_real_set.py` makes from any COLMAP reconstruction.
 //!
-//! Each method runs on every view, as on a synthetic scene ([`super::run_method`]), and is
+//! Each method runs on every view, as on a synthetic scene (the same runner), and is
 //! scored with what real data allows: the held-out observations within 1, 2 and 5 % depth
 //! and their median error, neighbouring views' agreement within 1 %, the share of pixels
 //! given a depth, the share of the bottom rows (paving in architectural captures) labelled
@@ -26,9 +26,7 @@ use crate::eval::heldout::{
     agreement, horizontal_share, neighbour_pairs, observations_by_view, read_heldout,
     scene_vertical, view_errors, Agreement, HeldoutScores, Observation, HELDOUT_THRESHOLDS,
 };
-use crate::eval::metrics::{
-    has_depth, peak_memory_bytes, reset_peak_memory, resident_memory_bytes,
-};
+use crate::eval::metrics::{has_depth, peak_memory_bytes, reset_peak_memory};
 use crate::io::output_stem;
 use crate::progress::Progress;
 use crate::raster::ImageF32;
@@ -185,7 +183,6 @@ fn bench_real_set(
     for &m in &cfg.methods {
         progress.println(&format!("{}: {}", set.name, m.name()));
         reset_peak_memory();
-        let _ = resident_memory_bytes();
         let t = Instant::now();
         let run_dir = out.join("runs").join(&set.name).join(m.name());
         let pred = run_method(m, scene, cfg, &run_dir);
