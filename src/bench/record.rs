@@ -211,10 +211,8 @@ pub fn update_readme_real(
     link: &str,
 ) -> Result<bool, BenchError> {
     let table = super::real::real_markdown(results);
-    // The table without its heading: the README has its own.
-    let body = table
-        .split_once("\n\n")
-        .map_or(table.as_str(), |(_, rest)| rest);
+    // From the table on: the README has its own heading and description.
+    let body = table.find("| set").map_or(table.as_str(), |i| &table[i..]);
     update_readme_block(
         readme,
         README_REAL_BEGIN,
