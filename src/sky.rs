@@ -23,7 +23,7 @@
 //! 0 ([`crate::nonplanar::NONPLANAR`] with no depth: label 0 in the planemap PNG, black in
 //! its `_vis.png`, nothing in `fused.ply`).
 
-use nalgebra::{Point3, Vector3};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use crate::raster::ImageF32;
@@ -265,13 +265,6 @@ fn grow(sky: &mut [bool], image: &ImageF32, w: usize, h: usize, cfg: &SkyConfig)
     }
 }
 
-/// Whether world point `x` lies above the horizontal plane through camera `view`'s centre
-/// (a check for tests and audits).
-pub fn above_camera(view: &View, up: &Vector3<f64>, x: &Vector3<f64>) -> bool {
-    let c = view.cam_from_world.inverse() * Point3::origin();
-    (x - c.coords).dot(up) > 0.0
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -383,7 +376,6 @@ mod tests {
         assert!(sky[20 * 60 + 30]);
         assert!(!sky[23 * 60 + 30]);
         assert!(!sky[40 * 60 + 30]);
-        assert!(above_camera(&view, &up, &Vector3::new(5.0, 0.0, 1.0)));
     }
 
     #[test]

@@ -23,8 +23,8 @@ use super::font::{draw_text, GLYPH};
 use super::report::{save_png, write_atomic};
 use super::{io_err, run_method, BenchConfig, BenchError, Method, Prediction};
 use crate::eval::heldout::{
-    agreement, horizontal_share, neighbour_pairs, observations_by_view, read_heldout,
-    scene_vertical, view_errors, Agreement, HeldoutScores, Observation, HELDOUT_THRESHOLDS,
+    horizontal_share, neighbour_pairs, observations_by_view, pooled_agreement, read_heldout,
+    view_errors, Agreement, HeldoutScores, Observation, HELDOUT_THRESHOLDS,
 };
 use crate::eval::metrics::{has_depth, peak_memory_bytes, reset_peak_memory};
 use crate::io::output_stem;
@@ -177,7 +177,7 @@ fn bench_real_set(
 ) -> Result<RealSetResult, BenchError> {
     let scene = &set.scene;
     let pairs = neighbour_pairs(scene, AGREEMENT_NEIGHBOURS);
-    let up = scene_vertical(scene);
+    let up = crate::sky::scene_vertical(&scene.views);
     let mut methods = Vec::new();
     let mut depths_of = Vec::new();
     for &m in &cfg.methods {
@@ -267,19 +267,7 @@ fn score_real(
         })
         .collect();
     let all: Vec<Option<f64>> = per_view.iter().flat_map(|(_, e)| e.clone()).collect();
-    let agreement = pairs
-        .par_iter()
-        .filter_map(|&(a, b)| {
-            Some(agreement(
-                scene,
-                a,
-                depth_of[a]?,
-                b,
-                depth_of[b]?,
-                AGREEMENT_TOLERANCE,
-            ))
-        })
-        .reduce(Agreement::default, |a, b| a + b);
+    let agreement = pooled_agreement(scene, pairs, &depth_of, AGREEMENT_TOLERANCE);
     let (with, total) = pred.views.iter().fold((0usize, 0usize), |(w, t), v| {
         (
             w + v.depth.iter().filter(|&&z| has_depth(z)).count(),

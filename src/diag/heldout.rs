@@ -13,8 +13,7 @@ use std::path::PathBuf;
 use super::DiagResult;
 use crate::bench::real::{load_real_set, AGREEMENT_NEIGHBOURS, AGREEMENT_TOLERANCE, GROUND_ROWS};
 use crate::eval::heldout::{
-    agreement, horizontal_share, neighbour_pairs, scene_vertical, view_errors, Agreement,
-    HeldoutScores,
+    horizontal_share, neighbour_pairs, pooled_agreement, view_errors, HeldoutScores,
 };
 use crate::eval::metrics::has_depth;
 use crate::io::dense::read_normal_map_path;
@@ -38,7 +37,7 @@ pub struct HeldoutArgs {
 pub fn run(args: &HeldoutArgs) -> DiagResult {
     let set = load_real_set(&args.set)?;
     let scene = &set.scene;
-    let up = scene_vertical(scene);
+    let up = crate::sky::scene_vertical(&scene.views);
     let pairs = neighbour_pairs(scene, AGREEMENT_NEIGHBOURS);
     for run in &args.runs {
         let depth_dir = if run.join("depth").is_dir() {
@@ -104,19 +103,8 @@ pub fn run(args: &HeldoutArgs) -> DiagResult {
             continue;
         }
         let s = HeldoutScores::from_errors(&all);
-        let a = pairs
-            .iter()
-            .filter_map(|&(a, b)| {
-                Some(agreement(
-                    scene,
-                    a,
-                    depths[a].as_deref()?,
-                    b,
-                    depths[b].as_deref()?,
-                    AGREEMENT_TOLERANCE,
-                ))
-            })
-            .fold(Agreement::default(), |a, b| a + b);
+        let maps: Vec<Option<&[f32]>> = depths.iter().map(|d| d.as_deref()).collect();
+        let a = pooled_agreement(scene, &pairs, &maps, AGREEMENT_TOLERANCE);
         println!(
             "  held-out: {} observations, within 1/2/5 %: {:.1} / {:.1} / {:.1}, median {}; \
              coverage {:.1} %; agreement {} ({} pixels)",

@@ -10,7 +10,7 @@
 //!   depth counting as a miss (every held-out point lies on a surface);
 //! - [`agreement`]: the share of the overlap of two views' depth maps where they agree;
 //! - [`horizontal_share`]: the share of an image band (the bottom rows: paving) whose normals
-//!   are horizontal planes', for the vertical [`scene_vertical`] gives.
+//!   are horizontal planes', for the vertical [`crate::sky::scene_vertical`] gives.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -265,10 +265,20 @@ pub fn agreement(
         + agreement_one_way(scene, b, depth_b, a, depth_a, tolerance)
 }
 
-/// The scene's vertical for scoring: [`crate::sky::scene_vertical`], the cameras' common
-/// vertical or the images' mean "up".
-pub fn scene_vertical(scene: &Scene) -> Option<Vector3<f64>> {
-    crate::sky::scene_vertical(&scene.views)
+/// [`agreement`] summed over `pairs` of views, skipping pairs where either view has no
+/// depth map (`depths[i]` is view `i`'s, or `None`). Pairs are scored in parallel; the sum
+/// does not depend on the thread count.
+pub fn pooled_agreement(
+    scene: &Scene,
+    pairs: &[(usize, usize)],
+    depths: &[Option<&[f32]>],
+    tolerance: f64,
+) -> Agreement {
+    use rayon::prelude::*;
+    pairs
+        .par_iter()
+        .filter_map(|&(a, b)| Some(agreement(scene, a, depths[a]?, b, depths[b]?, tolerance)))
+        .reduce(Agreement::default, |x, y| x + y)
 }
 
 /// Largest angle between a pixel's normal and the vertical for it to count as horizontal in
