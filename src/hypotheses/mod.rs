@@ -5,16 +5,20 @@
 //!   `normal_tolerance_deg` of `±d_k` vote with their offsets `d_k·P`; a 1D mean-shift
 //!   (bandwidth `bandwidth_r · R`) finds the density peaks; a peak with at least
 //!   `min_support` points within the bandwidth becomes the plane `d_k·X = offset`;
+//! - [`free`]: planes of any orientation fitted by sequential RANSAC to the points the
+//!   axis hypotheses leave unexplained (sloped paving, roofs, turned wings);
 //! - [`sweep`]: a photo-consistency sweep along each axis proposes planes the sparse points
 //!   are too few to propose;
 //! - [`creases`]: after a first labelling, dominant image lines lifted onto their labelled
 //!   plane vote for the planes meeting it there.
 
 pub mod creases;
+pub mod free;
 pub mod points;
 pub mod sweep;
 
 pub use creases::{crease_hypotheses, CreaseHypothesesConfig, CreaseHypothesis, LabelledView};
+pub use free::{free_plane_hypotheses, FreePlanesConfig};
 pub use points::plane_hypotheses;
 pub use sweep::{sweep_hypotheses, SweepHypothesesConfig, SweepVotes};
 
@@ -95,6 +99,8 @@ pub struct HypothesesConfig {
     /// Manhattan planes along a few lines only; the default sits between the shares
     /// measured in those two cases (docs/notes/hypotheses.md).
     pub max_shared_fraction: f64,
+    /// Free planes (any orientation) for the points the axis hypotheses leave unexplained.
+    pub free: FreePlanesConfig,
     /// The photo-consistency sweep proposing planes the sparse points are too few for.
     pub sweep: SweepHypothesesConfig,
     /// Planes through image creases lifted onto the first labelling's planes.
@@ -115,6 +121,7 @@ impl Default for HypothesesConfig {
             min_confidence: 1e-3,
             max_iterations: 100,
             max_shared_fraction: 0.65,
+            free: FreePlanesConfig::default(),
             sweep: SweepHypothesesConfig::default(),
             creases: CreaseHypothesesConfig::default(),
         }
@@ -162,6 +169,7 @@ impl HypothesesConfig {
             return bad("max_iterations must be ≥ 1".into());
         }
         self.creases.validate()?;
+        self.free.validate()?;
         self.sweep.validate()
     }
 

@@ -9,7 +9,8 @@ use super::{Config, PipelineError};
 use crate::axes::{dominant_axes, refine_axes_from_planes, AxisPlane, DominantAxes};
 use crate::classify::PlanarityModel;
 use crate::hypotheses::{
-    plane_hypotheses, sweep_hypotheses, CreaseHypothesis, HypothesesInput, PlaneHypothesis,
+    free_plane_hypotheses, plane_hypotheses, sweep_hypotheses, CreaseHypothesis, HypothesesInput,
+    PlaneHypothesis,
 };
 use crate::nonplanar::NonplanarView;
 use crate::normals::{estimate_normals_with_scale, OrientedCloud};
@@ -34,6 +35,9 @@ pub struct Prepared {
     /// ([`crate::hypotheses::sweep_hypotheses`]); they are offered in every view where they
     /// lie in front of the camera, since few sparse points support them.
     pub sweep_hypotheses: usize,
+    /// How many of the point hypotheses (the last ones, just before the sweep's) are free
+    /// planes ([`crate::hypotheses::free_plane_hypotheses`]).
+    pub free_hypotheses: usize,
     /// One entry per crease hypothesis ([`crate::hypotheses::crease_hypotheses`]) — the very
     /// last of `hypotheses`, after the sweep's, added by [`super::run`] after a first labelling —
     /// in order: the indices of the views that see it, the only views offered it. Empty
@@ -74,8 +78,11 @@ pub struct SparseStages {
     pub oriented: OrientedCloud,
     /// Dominant directions after the refit.
     pub axes: DominantAxes,
-    /// Plane hypotheses of the points along the refit axes.
+    /// Plane hypotheses of the points: along the refit axes, then the free planes.
     pub hypotheses: Vec<PlaneHypothesis>,
+    /// How many of `hypotheses` (the last ones) are free planes
+    /// ([`crate::hypotheses::free_plane_hypotheses`]).
+    pub free_hypotheses: usize,
     /// Seconds spent: scale + normals, axes, hypotheses (with the refit).
     pub seconds: [f64; 3],
 }
@@ -157,11 +164,19 @@ pub fn sparse_stages(scene: &Scene, cfg: &Config) -> Result<SparseStages, Pipeli
         level(&mut axes);
         hypotheses = plane_hypotheses(&hyp_input(scene, &oriented, &axes, scale), &cfg.hypotheses)?;
     }
+    let free = free_plane_hypotheses(
+        &hyp_input(scene, &oriented, &axes, scale),
+        &hypotheses,
+        &cfg.hypotheses,
+    )?;
+    let free_hypotheses = free.len();
+    hypotheses.extend(free);
     Ok(SparseStages {
         scale,
         oriented,
         axes,
         hypotheses,
+        free_hypotheses,
         seconds: [t_normals, t_axes, t.elapsed().as_secs_f64()],
     })
 }
@@ -184,6 +199,7 @@ pub fn prepare_with_progress(
         oriented,
         axes,
         mut hypotheses,
+        free_hypotheses,
         seconds,
     } = sparse_stages(scene, cfg)?;
     progress.println(&format!(
@@ -258,6 +274,7 @@ pub fn prepare_with_progress(
         axes,
         hypotheses,
         sweep_hypotheses: num_sweep,
+        free_hypotheses,
         crease_views: Vec::new(),
         images,
         seconds: [
