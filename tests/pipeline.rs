@@ -101,7 +101,26 @@ fn demo_scene_is_reconstructed_within_tolerance() {
         .all(|p| p.iter().all(|c| c.is_finite())));
     let planes: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("planes.json")).unwrap()).unwrap();
-    assert_eq!(planes.as_array().unwrap().len(), prepared.hypotheses.len());
+    let planes = planes.as_array().unwrap();
+    assert_eq!(planes.len(), prepared.hypotheses.len());
+    // Each record says where it came from: the crease planes last, the sweep's before them,
+    // the free planes before those, the points' first.
+    let crease_start = planes.len() - prepared.crease_views.len();
+    let sweep_start = crease_start - prepared.sweep_hypotheses;
+    let free_start = sweep_start - prepared.free_hypotheses;
+    for (i, p) in planes.iter().enumerate() {
+        let want = if i >= crease_start {
+            "crease"
+        } else if i >= sweep_start {
+            "sweep"
+        } else if i >= free_start {
+            "free"
+        } else {
+            assert!(!p["axis"].is_null(), "a point plane has an axis: {p}");
+            "points"
+        };
+        assert_eq!(p["source"], want, "plane {i}: {p}");
+    }
 }
 
 fn files_under(dir: &Path) -> Vec<PathBuf> {

@@ -24,7 +24,7 @@ pub use config::{Config, FusionConfig, SolverConfig};
 pub use creases::read_crease_hypotheses;
 pub use fuse::fuse;
 pub use label::{confirm_nonplanar, label_view, view_energy, ViewPlanemap};
-pub use outputs::{write_view_outputs, PlaneRecord, NONPLANAR_COLOR, SWEEP_DIR};
+pub use outputs::{write_view_outputs, PlaneRecord, PlaneSource, NONPLANAR_COLOR, SWEEP_DIR};
 pub use stages::{prepare, prepare_with_progress, sparse_stages, Prepared, SparseStages};
 
 use creases::{crease_pass, write_crease_hypotheses, CREASES_FILE};

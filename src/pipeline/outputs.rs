@@ -208,6 +208,24 @@ pub(super) fn load_view_outputs(
     })
 }
 
+/// Where a hypothesis in `planes.json` came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PlaneSource {
+    /// The sparse points' mean-shift along a dominant direction
+    /// ([`crate::hypotheses::plane_hypotheses`]); files written before `source` existed
+    /// read as this.
+    #[default]
+    Points,
+    /// A free plane fitted to the points the axis planes leave unexplained
+    /// ([`crate::hypotheses::free_plane_hypotheses`]).
+    Free,
+    /// The photo-consistency sweep ([`crate::hypotheses::sweep_hypotheses`]).
+    Sweep,
+    /// A crease after the first labelling ([`crate::hypotheses::crease_hypotheses`]).
+    Crease,
+}
+
 /// One hypothesis in `planes.json`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PlaneRecord {
@@ -219,6 +237,9 @@ pub struct PlaneRecord {
     pub offset: f64,
     /// The dominant direction it came from.
     pub axis: Option<usize>,
+    /// Which stage proposed it.
+    #[serde(default)]
+    pub source: PlaneSource,
     /// Supporting sparse points.
     pub support: usize,
     /// Image names of the views whose planemap uses it, with pixel counts.
@@ -245,15 +266,28 @@ pub(super) fn write_planes_json(
             }
         }
     }
+    let creases_start = prepared.hypotheses.len() - prepared.crease_views.len();
+    let sweep_start = creases_start - prepared.sweep_hypotheses;
+    let free_start = sweep_start - prepared.free_hypotheses;
     let records: Vec<PlaneRecord> = prepared
         .hypotheses
         .iter()
         .zip(usage)
-        .map(|(h, views)| PlaneRecord {
+        .enumerate()
+        .map(|(i, (h, views))| PlaneRecord {
             id: h.id,
             normal: [h.plane.normal.x, h.plane.normal.y, h.plane.normal.z],
             offset: h.plane.offset,
             axis: h.axis,
+            source: if i >= creases_start {
+                PlaneSource::Crease
+            } else if i >= sweep_start {
+                PlaneSource::Sweep
+            } else if i >= free_start {
+                PlaneSource::Free
+            } else {
+                PlaneSource::Points
+            },
             support: h.support,
             views,
         })
