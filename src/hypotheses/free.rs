@@ -14,9 +14,14 @@
 //! 2. a sample is a residual point and two of its `neighbours` nearest residual points (so
 //!    that the three lie on one surface); its plane's inliers are the residual points within
 //!    `h` whose normals agree within `normal_tolerance_deg`;
-//! 3. the best of `samples` samples, refit to its inliers by total least squares, becomes a
-//!    hypothesis when it keeps the same minimum support as the axis hypotheses; its inliers
-//!    leave the residual set, and the search repeats, up to `max_planes` planes.
+//! 3. the best of `samples` samples is refit to its inliers by total least squares; with
+//!    fewer than the axis hypotheses' minimum support the search ends. Its inliers leave the
+//!    residual set either way;
+//! 4. it becomes a hypothesis (snapped to a dominant direction within `snap_deg`) unless it
+//!    duplicates one, runs along edges (`max_edge_fraction`, `max_overlap_fraction`: PCA
+//!    normals bisect at edges, so edge points agree with a plane between two real ones) or is
+//!    too narrow (`min_spread_r`: caps of spheres, strips down columns). The search repeats,
+//!    up to `max_planes` planes, and stops after 4 rejections in a row.
 //!
 //! Deterministic: the samples come from a fixed-seed generator and the best one is chosen by
 //! count, then by sample order, whatever the thread count.
@@ -170,7 +175,7 @@ pub fn free_plane_hypotheses(
     let merge_tol = config.merge_offset_r * input.scale;
     let mut out: Vec<PlaneHypothesis> = Vec::new();
     let mut rng = ChaCha8Rng::seed_from_u64(SEED);
-    // A few rejected fits in a row (near an axis, or a duplicate) end the search too.
+    // A few rejected fits in a row (near an axis, duplicates, edges, too narrow) end it too.
     let mut rejected = 0;
     while out.len() < free.max_planes && residual.len() >= min_support.max(3) && rejected < 4 {
         let Some(plane) = best_sample(input, &residual, h, cos_tol, free, &mut rng) else {
