@@ -158,9 +158,12 @@ pub fn free_plane_hypotheses(
     let h = config.bandwidth_r * input.scale;
     let cos_tol = config.normal_tolerance_deg.to_radians().cos();
     let min_support = config.effective_min_support(input.positions.len());
-    let on = |plane: &Plane, i: usize| {
-        (plane.normal.dot(&input.positions[i]) - plane.offset).abs() <= h
-            && input.normals[i].dot(&plane.normal).abs() >= cos_tol
+    let on = |plane: &Plane, i: usize| is_inlier(input, plane, i, h, cos_tol);
+    // Within the bandwidth of an axis hypothesis, whatever the normal.
+    let on_existing = |p: &Vector3<f64>| {
+        existing
+            .iter()
+            .any(|e| (e.plane.normal.dot(p) - e.plane.offset).abs() <= h)
     };
     let mut residual: Vec<usize> = (0..input.positions.len())
         .filter(|&i| {
@@ -171,6 +174,7 @@ pub fn free_plane_hypotheses(
         })
         .collect();
     let cos_axes = free.min_angle_to_axes_deg.to_radians().cos();
+    let cos_snap = free.snap_deg.to_radians().cos();
     let cos_merge = config.merge_angle_deg.to_radians().cos();
     let merge_tol = config.merge_offset_r * input.scale;
     let mut out: Vec<PlaneHypothesis> = Vec::new();
@@ -178,7 +182,7 @@ pub fn free_plane_hypotheses(
     // A few rejected fits in a row (near an axis, duplicates, edges, too narrow) end it too.
     let mut rejected = 0;
     while out.len() < free.max_planes && residual.len() >= min_support.max(3) && rejected < 4 {
-        let Some(plane) = best_sample(input, &residual, h, cos_tol, free, &mut rng) else {
+        let Some(plane) = best_sample(input, &residual, &on, free, &mut rng) else {
             break;
         };
         // Refit to the inliers, twice (the inlier set moves with the plane).
@@ -203,7 +207,6 @@ pub fn free_plane_hypotheses(
             break;
         }
         residual.retain(|i| inliers.binary_search(i).is_err());
-        let cos_snap = free.snap_deg.to_radians().cos();
         let snap = input
             .axes
             .directions
@@ -244,11 +247,7 @@ pub fn free_plane_hypotheses(
         // corner points (PCA normals bisect there): a "plane" of them runs along an edge.
         let shared = inliers
             .iter()
-            .filter(|&&i| {
-                existing
-                    .iter()
-                    .any(|e| (e.plane.normal.dot(&input.positions[i]) - e.plane.offset).abs() <= h)
-            })
+            .filter(|&&i| on_existing(&input.positions[i]))
             .count();
         // Every point within the bandwidth, whatever its normal: on a stair flight's slope
         // most are tread and riser points near the nosings.
@@ -256,12 +255,7 @@ pub fn free_plane_hypotheses(
         for p in input.positions {
             if (plane.normal.dot(p) - plane.offset).abs() <= h {
                 near += 1;
-                if existing
-                    .iter()
-                    .any(|e| (e.plane.normal.dot(p) - e.plane.offset).abs() <= h)
-                {
-                    near_shared += 1;
-                }
+                near_shared += usize::from(on_existing(p));
             }
         }
         let edge = shared as f64 > free.max_edge_fraction * inliers.len() as f64
@@ -312,8 +306,7 @@ pub fn free_plane_hypotheses(
 fn best_sample(
     input: &HypothesesInput<'_>,
     residual: &[usize],
-    h: f64,
-    cos_tol: f64,
+    on: &(impl Fn(&Plane, usize) -> bool + Sync),
     free: &FreePlanesConfig,
     rng: &mut ChaCha8Rng,
 ) -> Option<Plane> {
@@ -365,20 +358,12 @@ fn best_sample(
                 normal: n / len,
                 offset: (n / len).dot(&p),
             };
-            // The sample's own points must agree with its plane's normal.
-            if idx
-                .iter()
-                .any(|&j| input.normals[residual[j]].dot(&plane.normal).abs() < cos_tol)
-            {
+            // The sample's own points (on the plane by construction) must be its inliers:
+            // their normals agree with it.
+            if !idx.iter().all(|&j| on(&plane, residual[j])) {
                 return None;
             }
-            let count = residual
-                .iter()
-                .filter(|&&i| {
-                    (plane.normal.dot(&input.positions[i]) - plane.offset).abs() <= h
-                        && input.normals[i].dot(&plane.normal).abs() >= cos_tol
-                })
-                .count();
+            let count = residual.iter().filter(|&&i| on(&plane, i)).count();
             Some((count, s, plane))
         })
         .collect();
@@ -386,6 +371,13 @@ fn best_sample(
         .into_iter()
         .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)))
         .map(|(_, _, p)| p)
+}
+
+/// Whether point `i` lies within `h` of `plane` with a normal within the angle whose cosine
+/// is `cos_tol`: a plane's inlier, and what "explained" means for the axis hypotheses.
+fn is_inlier(input: &HypothesesInput<'_>, plane: &Plane, i: usize, h: f64, cos_tol: f64) -> bool {
+    (plane.normal.dot(&input.positions[i]) - plane.offset).abs() <= h
+        && input.normals[i].dot(&plane.normal).abs() >= cos_tol
 }
 
 /// The standard deviations of the points `idx` along the two in-plane principal directions
@@ -424,7 +416,7 @@ fn in_plane_spread(positions: &[Vector3<f64>], idx: &[usize], plane: &Plane) -> 
 
 /// The total-least-squares plane of the points `idx` (normal: the covariance's smallest
 /// eigenvector, sign as [`crate::normals`] orients normals), or `None` for fewer than 3.
-pub(crate) fn fit_plane(positions: &[Vector3<f64>], idx: &[usize]) -> Option<Plane> {
+fn fit_plane(positions: &[Vector3<f64>], idx: &[usize]) -> Option<Plane> {
     if idx.len() < 3 {
         return None;
     }
