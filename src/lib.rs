@@ -48,6 +48,7 @@ pub mod scale;
 pub mod normals;
 pub mod axes;
 pub mod photo;
+pub mod lines;
 pub mod hypotheses;
 pub mod planemap;
 pub mod classify;

@@ -100,6 +100,10 @@ enum DiagCommand {
     /// The plane-sweep baseline's families and where its winner is wrong.
     #[command(after_help = "Example:\n  planemap diag sweep ws/stairs 3 --pixel 120,80")]
     Sweep(planemap::diag::sweep::SweepArgs),
+    /// Segments, 3D lines and their accuracy against the ground truth, and the planes they
+    /// propose.
+    #[command(after_help = "Example:\n  planemap diag lines ws/street --per-view")]
+    Lines(planemap::diag::lines::LinesArgs),
     /// Where the photo-consistency sweep for plane hypotheses votes.
     #[command(after_help = "Example:\n  planemap diag votes ws/stairs")]
     Votes(planemap::diag::votes::VotesArgs),
@@ -936,6 +940,7 @@ fn diag(d: DiagCommand) -> Result<()> {
         DiagCommand::Nonplanar(a) => diag::nonplanar::run(&a),
         DiagCommand::Sweep(a) => diag::sweep::run(&a),
         DiagCommand::Votes(a) => diag::votes::run(&a),
+        DiagCommand::Lines(a) => diag::lines::run(&a),
         DiagCommand::ScoreSplit(a) => diag::split::run(&a),
         DiagCommand::Heldout(a) => diag::heldout::run(&a),
         DiagCommand::Sky(a) => diag::sky::run(&a),

@@ -22,6 +22,7 @@ const LAYERS: [(&str, &[&str]); 3] = [
             "normals",
             "axes",
             "photo",
+            "lines",
             "hypotheses",
             "planemap",
             "classify",

@@ -103,14 +103,18 @@ fn demo_scene_is_reconstructed_within_tolerance() {
         serde_json::from_str(&std::fs::read_to_string(out.join("planes.json")).unwrap()).unwrap();
     let planes = planes.as_array().unwrap();
     assert_eq!(planes.len(), prepared.hypotheses.len());
-    // Each record says where it came from: the crease planes last, the sweep's before them,
-    // the free planes before those, the points' first.
+    // Each record says where it came from: the crease planes last, the lines' before them,
+    // then the sweep's, the free planes, the points' first.
     let crease_start = planes.len() - prepared.crease_views.len();
-    let sweep_start = crease_start - prepared.sweep_hypotheses;
+    let lines_start = crease_start - prepared.line_hypotheses;
+    let sweep_start = lines_start - prepared.sweep_hypotheses;
     let free_start = sweep_start - prepared.free_hypotheses;
     for (i, p) in planes.iter().enumerate() {
         let want = if i >= crease_start {
             "crease"
+        } else if i >= lines_start {
+            assert!(!p["axis"].is_null(), "a line plane has an axis: {p}");
+            "lines"
         } else if i >= sweep_start {
             "sweep"
         } else if i >= free_start {

@@ -18,6 +18,7 @@
 
 pub mod energy;
 pub mod heldout;
+pub mod lines;
 pub mod nonplanar;
 pub mod pixel;
 pub mod sky;
@@ -87,6 +88,14 @@ impl Workspace {
     pub fn gt_pfm(&self, kind: &str, v: usize) -> Result<ImageF32, PfmError> {
         let stem = output_stem(&self.scene.views[v].name);
         read_pfm_path(&self.gt().join(kind).join(format!("{stem}.pfm")))
+    }
+
+    /// `gt/planes.json`: the ground-truth planes.
+    pub fn gt_planes(&self) -> DiagResult<Vec<crate::workspace::GtPlaneRecord>> {
+        let path = self.gt().join("planes.json");
+        let text =
+            std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?)
     }
 
     /// `gt/planes/STEM.png` of view `v`: the ground-truth plane id per pixel (0 = non-planar).

@@ -9,16 +9,20 @@
 //!   axis hypotheses leave unexplained (sloped paving, roofs, turned wings);
 //! - [`sweep`]: a photo-consistency sweep along each axis proposes planes the sparse points
 //!   are too few to propose;
+//! - [`lines`]: planes spanned by 3D lines ([`crate::lines`]), for plain walls bounded by
+//!   edges;
 //! - [`creases`]: after a first labelling, dominant image lines lifted onto their labelled
 //!   plane vote for the planes meeting it there.
 
 pub mod creases;
 pub mod free;
+pub mod lines;
 pub mod points;
 pub mod sweep;
 
 pub use creases::{crease_hypotheses, CreaseHypothesesConfig, CreaseHypothesis, LabelledView};
 pub use free::{free_plane_hypotheses, FreePlanesConfig};
+pub use lines::{line_plane_hypotheses, LinePlanesConfig};
 pub use points::plane_hypotheses;
 pub use sweep::{sweep_hypotheses, SweepHypothesesConfig, SweepVotes};
 
@@ -103,6 +107,8 @@ pub struct HypothesesConfig {
     pub free: FreePlanesConfig,
     /// The photo-consistency sweep proposing planes the sparse points are too few for.
     pub sweep: SweepHypothesesConfig,
+    /// Planes spanned by 3D lines: plain walls bounded by edges.
+    pub lines: LinePlanesConfig,
     /// Planes through image creases lifted onto the first labelling's planes.
     pub creases: CreaseHypothesesConfig,
 }
@@ -123,6 +129,7 @@ impl Default for HypothesesConfig {
             max_shared_fraction: 0.65,
             free: FreePlanesConfig::default(),
             sweep: SweepHypothesesConfig::default(),
+            lines: LinePlanesConfig::default(),
             creases: CreaseHypothesesConfig::default(),
         }
     }
@@ -170,6 +177,7 @@ impl HypothesesConfig {
         }
         self.creases.validate()?;
         self.free.validate()?;
+        self.lines.validate()?;
         self.sweep.validate()
     }
 

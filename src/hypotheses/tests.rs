@@ -693,3 +693,90 @@ fn deterministic_across_thread_counts() {
     assert_eq!(a, run(2));
     assert_eq!(a.len(), 6, "{a:?}");
 }
+
+/// Issue 37's test: the wall x = 0 of a room corner is plain paint, with no sparse point
+/// and no texture, seen by three views; the points (on the other wall and the floor)
+/// propose no plane for it. Its edges — the corner, the floor crease and its outline
+/// against the sky — are image lines; triangulated, they span its plane, with no other
+/// source of hypotheses involved.
+#[test]
+fn a_plain_wall_without_points_gets_its_plane_from_its_edges() {
+    use crate::lines::{triangulate_lines, LinesConfig};
+    use crate::planemap::testutil::{cast, corner_views, FACE};
+    let views = corner_views();
+    // Plain faces (grey 0.3, 0.55, 0.8), sky 0.05, 4×4 supersampling.
+    let images: Vec<ImageF32> = views
+        .iter()
+        .map(|v| {
+            let (w, h) = (v.camera.width, v.camera.height);
+            let mut img = ImageF32::filled(w, h, 3, 0.0);
+            for y in 0..h {
+                for x in 0..w {
+                    let mut sum = 0.0;
+                    for s in 0..16 {
+                        let xy = nalgebra::Vector2::new(
+                            x as f64 + (s % 4) as f64 / 4.0 + 0.125,
+                            y as f64 + (s / 4) as f64 / 4.0 + 0.125,
+                        );
+                        let (o, d) = v.ray(&xy);
+                        sum += cast(&o, &d).map_or(0.05, |(f, _)| [0.3, 0.55, 0.8][f]);
+                    }
+                    img.pixel_mut(x, y).fill(sum as f32 / 16.0);
+                }
+            }
+            img
+        })
+        .collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    for face in [1usize, 2] {
+        for _ in 0..150 {
+            let mut p = Vector3::zeros();
+            for k in (0..3).filter(|&k| k != face) {
+                p[k] = rng.random_range(0.1..FACE - 0.1);
+            }
+            positions.push(p);
+            let mut n = Vector3::zeros();
+            n[face] = 1.0;
+            normals.push(n);
+        }
+    }
+    let confidence = vec![1.0; positions.len()];
+    let scene = seen_by_every_view(views, &positions);
+    let axes = manual_axes(vec![Vector3::x(), Vector3::y(), Vector3::z()]);
+    let input = HypothesesInput {
+        positions: &positions,
+        normals: &normals,
+        confidence: &confidence,
+        axes: &axes,
+        // R: a pixel is 6 cm at the views' 8 m.
+        scale: 0.06,
+    };
+    let mut cfg = HypothesesConfig::default();
+    let existing = plane_hypotheses(&input, &cfg).unwrap();
+    assert!(existing.iter().all(|h| h.axis != Some(0)), "{existing:?}");
+    let set = triangulate_lines(
+        &scene,
+        &images,
+        &axes.directions,
+        0.06,
+        &LinesConfig::default(),
+    );
+    assert!(set.lines.len() >= 3, "{set:?}");
+    // Lines off: nothing.
+    assert!(line_plane_hypotheses(&input, &set.lines, &existing, &cfg)
+        .unwrap()
+        .is_empty());
+    cfg.lines.enabled = true;
+    let planes = line_plane_hypotheses(&input, &set.lines, &existing, &cfg).unwrap();
+    // The wall, within half a pixel's size (R = 6 cm). (The far outlines of the other two
+    // faces, against the sky, also span a plane x = 4 that no surface fills.)
+    let wall: Vec<_> = planes
+        .iter()
+        .filter(|h| h.axis == Some(0) && h.plane.offset.abs() < 0.5)
+        .collect();
+    assert_eq!(wall.len(), 1, "{planes:?}");
+    assert!(wall[0].plane.offset.abs() < 0.03, "{:?}", wall[0]);
+    assert!(planes[0].id as usize == existing.len());
+}

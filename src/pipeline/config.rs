@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use super::PipelineError;
 use crate::axes::AxesConfig;
 use crate::hypotheses::HypothesesConfig;
+use crate::lines::LinesConfig;
 use crate::nonplanar::NonplanarConfig;
 use crate::normals::NormalsConfig;
 use crate::planemap::PlanemapConfig;
@@ -73,6 +74,9 @@ pub struct Config {
     pub normals: NormalsConfig,
     /// Dominant axes.
     pub axes: AxesConfig,
+    /// 3D lines: segment detection, vanishing directions, matching (used by
+    /// `hypotheses.lines`).
+    pub lines: LinesConfig,
     /// Plane hypotheses.
     pub hypotheses: HypothesesConfig,
     /// Per-view planemap energy.
@@ -115,6 +119,7 @@ impl Config {
     pub fn validate(&self) -> Result<(), PipelineError> {
         self.normals.validate()?;
         self.axes.validate()?;
+        self.lines.validate().map_err(PipelineError::Config)?;
         self.hypotheses.validate()?;
         self.planemap
             .validate()

@@ -60,11 +60,12 @@ pub fn view_energy(
     cfg: &Config,
 ) -> Result<PlanemapEnergy, PipelineError> {
     let planes: Vec<_> = prepared.hypotheses.iter().map(|h| h.plane).collect();
-    // The sweep's and the crease hypotheses have few or no sparse points: the sweep's are
-    // offered wherever they lie in front of the camera, a crease hypothesis in the views that
-    // see it.
+    // The sweep's, the lines' and the crease hypotheses have few or no sparse points: the
+    // sweep's and the lines' are offered wherever they lie in front of the camera, a crease
+    // hypothesis in the views that see it.
     let creases_start = prepared.hypotheses.len() - prepared.crease_views.len();
-    let photo_planes: Vec<u32> = (creases_start - prepared.sweep_hypotheses..creases_start)
+    let offered_everywhere = prepared.sweep_hypotheses + prepared.line_hypotheses;
+    let photo_planes: Vec<u32> = (creases_start - offered_everywhere..creases_start)
         .chain(
             prepared
                 .crease_views

@@ -222,6 +222,8 @@ pub enum PlaneSource {
     Free,
     /// The photo-consistency sweep ([`crate::hypotheses::sweep_hypotheses`]).
     Sweep,
+    /// Planes spanned by 3D lines ([`crate::hypotheses::line_plane_hypotheses`]).
+    Lines,
     /// A crease after the first labelling ([`crate::hypotheses::crease_hypotheses`]).
     Crease,
 }
@@ -267,7 +269,8 @@ pub(super) fn write_planes_json(
         }
     }
     let creases_start = prepared.hypotheses.len() - prepared.crease_views.len();
-    let sweep_start = creases_start - prepared.sweep_hypotheses;
+    let lines_start = creases_start - prepared.line_hypotheses;
+    let sweep_start = lines_start - prepared.sweep_hypotheses;
     let free_start = sweep_start - prepared.free_hypotheses;
     let records: Vec<PlaneRecord> = prepared
         .hypotheses
@@ -281,6 +284,8 @@ pub(super) fn write_planes_json(
             axis: h.axis,
             source: if i >= creases_start {
                 PlaneSource::Crease
+            } else if i >= lines_start {
+                PlaneSource::Lines
             } else if i >= sweep_start {
                 PlaneSource::Sweep
             } else if i >= free_start {

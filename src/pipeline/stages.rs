@@ -9,8 +9,8 @@ use super::{Config, PipelineError};
 use crate::axes::{dominant_axes, refine_axes_from_planes, AxisPlane, DominantAxes};
 use crate::classify::PlanarityModel;
 use crate::hypotheses::{
-    free_plane_hypotheses, plane_hypotheses, sweep_hypotheses, CreaseHypothesis, HypothesesInput,
-    PlaneHypothesis,
+    free_plane_hypotheses, line_plane_hypotheses, plane_hypotheses, sweep_hypotheses,
+    CreaseHypothesis, HypothesesInput, PlaneHypothesis,
 };
 use crate::nonplanar::NonplanarView;
 use crate::normals::{estimate_normals_with_scale, OrientedCloud};
@@ -29,12 +29,19 @@ pub struct Prepared {
     /// Dominant directions.
     pub axes: DominantAxes,
     /// Plane hypotheses; a planemap label `l` is hypothesis `l`. The sparse-point ones come
-    /// first, then those of the photo-consistency sweep.
+    /// first (the free planes last among them), then those of the photo-consistency sweep,
+    /// then those of the 3D lines.
     pub hypotheses: Vec<PlaneHypothesis>,
-    /// How many of `hypotheses` (the last ones) come from the photo-consistency sweep
-    /// ([`crate::hypotheses::sweep_hypotheses`]); they are offered in every view where they
-    /// lie in front of the camera, since few sparse points support them.
+    /// How many of `hypotheses` come from the photo-consistency sweep
+    /// ([`crate::hypotheses::sweep_hypotheses`]), just before the lines'; they are offered
+    /// in every view where they lie in front of the camera, since few sparse points support
+    /// them.
     pub sweep_hypotheses: usize,
+    /// How many of `hypotheses` (the last ones before the creases') come from 3D lines
+    /// ([`crate::hypotheses::line_plane_hypotheses`]); offered as the sweep's are.
+    pub line_hypotheses: usize,
+    /// The segments and 3D lines, when `hypotheses.lines.enabled`.
+    pub lines: Option<crate::lines::LineSet>,
     /// How many of the point hypotheses (the last ones, just before the sweep's) are free
     /// planes ([`crate::hypotheses::free_plane_hypotheses`]).
     pub free_hypotheses: usize,
@@ -211,8 +218,10 @@ pub fn prepare_with_progress(
     let t = Instant::now();
     let input = hyp_input(scene, &oriented, &axes, scale);
     // Images are loaded once for all views when a stage matches views against each other.
-    let wants_images =
-        cfg.hypotheses.sweep.enabled || cfg.planemap.photo_weight > 0.0 || cfg.nonplanar.enabled;
+    let wants_images = cfg.hypotheses.sweep.enabled
+        || cfg.hypotheses.lines.enabled
+        || cfg.planemap.photo_weight > 0.0
+        || cfg.nonplanar.enabled;
     let images = if wants_images && scene.views.iter().all(|v| v.image_path.is_some()) {
         Some(
             scene
@@ -235,6 +244,31 @@ pub fn prepare_with_progress(
             "{num_sweep} more plane hypotheses from the photo-consistency sweep ({:.1} s)",
             t.elapsed().as_secs_f64()
         ));
+    }
+    let mut num_lines = 0;
+    let mut lines = None;
+    if let (true, Some(imgs)) = (cfg.hypotheses.lines.enabled, &images) {
+        let t = Instant::now();
+        let set = crate::lines::triangulate_lines(scene, imgs, &axes.directions, scale, &cfg.lines);
+        let input = hyp_input(scene, &oriented, &axes, scale);
+        let extra = line_plane_hypotheses(&input, &set.lines, &hypotheses, &cfg.hypotheses)?;
+        num_lines = extra.len();
+        for h in &extra {
+            tracing::debug!(
+                "plane from lines: normal {:.3?}, offset {:.4}, {} sparse points",
+                h.plane.normal.as_slice(),
+                h.plane.offset,
+                h.support
+            );
+        }
+        hypotheses.extend(extra);
+        progress.println(&format!(
+            "{} segments, {} 3D lines, {num_lines} more plane hypotheses from lines ({:.1} s)",
+            set.views.iter().map(|v| v.segments.len()).sum::<usize>(),
+            set.lines.len(),
+            t.elapsed().as_secs_f64()
+        ));
+        lines = Some(set);
     }
     bar.inc(1);
     if hypotheses.is_empty() {
@@ -274,6 +308,8 @@ pub fn prepare_with_progress(
         axes,
         hypotheses,
         sweep_hypotheses: num_sweep,
+        line_hypotheses: num_lines,
+        lines,
         free_hypotheses,
         crease_views: Vec::new(),
         images,
