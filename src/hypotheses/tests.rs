@@ -756,13 +756,12 @@ fn a_plain_wall_without_points_gets_its_plane_from_its_edges() {
     let mut cfg = HypothesesConfig::default();
     let existing = plane_hypotheses(&input, &cfg).unwrap();
     assert!(existing.iter().all(|h| h.axis != Some(0)), "{existing:?}");
-    let set = triangulate_lines(
-        &scene,
-        &images,
-        &axes.directions,
-        0.06,
-        &LinesConfig::default(),
-    );
+    // Three views see the wall: a line needs all three.
+    let lines_cfg = LinesConfig {
+        min_views: 3,
+        ..LinesConfig::default()
+    };
+    let set = triangulate_lines(&scene, &images, &axes.directions, 0.06, &lines_cfg);
     assert!(set.lines.len() >= 3, "{set:?}");
     // Lines off: nothing.
     assert!(line_plane_hypotheses(&input, &set.lines, &existing, &cfg)

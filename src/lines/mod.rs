@@ -45,8 +45,10 @@ pub struct LinesConfig {
     /// pixels (> 0) of a segment of the same direction there.
     pub match_tolerance_px: f64,
     /// Views (the reference and its match included) that must see a 3D line, a count ≥ 2.
-    /// 3: a pair of segments of the same direction always triangulates to some line, a
-    /// third view is the test.
+    /// A pair of segments of the same direction always triangulates to some line; a third
+    /// view is a test, but on the development scenes lines seen in exactly three views were
+    /// often wrong (repeated edges): 4 raised the share within 1 % from 41–74 % to 56–100 %
+    /// (docs/notes/hypotheses.md#planes-from-3d-lines).
     pub min_views: usize,
     /// Two back-projection planes closer than this angle (degrees, > 0) do not triangulate.
     pub min_angle_deg: f64,
@@ -67,7 +69,7 @@ impl Default for LinesConfig {
             crowd_distance_px: 6.0,
             neighbours: 6,
             match_tolerance_px: 1.5,
-            min_views: 3,
+            min_views: 4,
             min_angle_deg: 2.0,
             max_sigma_r: 2.0,
         }

@@ -244,6 +244,28 @@ fn crowded(vl: &ViewLines, cfg: &LinesConfig) -> Vec<bool> {
         .collect()
 }
 
+/// The depths at which view `v` may see a line: from half the 5th percentile to twice the
+/// 95th percentile of its sparse points' depths (all depths when it has none). A wrong
+/// pair of segments can meet anywhere, often just in front of the cameras, and still
+/// project onto some segment of a third view.
+fn depth_range(scene: &Scene, v: usize) -> (f64, f64) {
+    let me = v as u32;
+    let mut z: Vec<f64> = scene
+        .cloud
+        .positions
+        .iter()
+        .zip(&scene.cloud.tracks)
+        .filter(|(_, t)| t.contains(&me))
+        .filter_map(|(p, _)| scene.views[v].project(p).map(|(_, z)| z))
+        .collect();
+    if z.is_empty() {
+        return (0.0, f64::INFINITY);
+    }
+    z.sort_by(f64::total_cmp);
+    let q = |f: f64| z[((z.len() - 1) as f64 * f).round() as usize];
+    (0.5 * q(0.05), 2.0 * q(0.95))
+}
+
 /// Weighted least-squares point of 2D lines `(n, c, weight)`, with its covariance.
 fn solve_lines(lines: &[(Vector2<f64>, f64, f64)]) -> Option<(Vector2<f64>, Matrix2<f64>)> {
     let mut a = Matrix2::zeros();
@@ -337,6 +359,9 @@ pub fn lines_from_segments(
     let dirs: Vec<Vector3<f64>> = directions.iter().map(|d| d.normalize()).collect();
     let bases: Vec<_> = dirs.iter().map(basis).collect();
     let centres: Vec<Vector3<f64>> = scene.views.iter().map(|v| v.center()).collect();
+    let ranges: Vec<(f64, f64)> = (0..scene.views.len())
+        .map(|v| depth_range(scene, v))
+        .collect();
     let sin_min = cfg.min_angle_deg.to_radians().sin();
     let candidates: Vec<Candidate> = (0..scene.views.len())
         .into_par_iter()
@@ -370,6 +395,10 @@ pub fn lines_from_segments(
                         let Some((j0, j1, zj)) = extent_of(scene, j, oj, &p, d) else {
                             continue;
                         };
+                        let inside = |v: usize, z: f64| z >= ranges[v].0 && z <= ranges[v].1;
+                        if !inside(i, zi) || !inside(j, zj) {
+                            continue;
+                        }
                         let overlap = i1.min(j1) - i0.max(j0);
                         if overlap <= 0.3 * (i1 - i0).min(j1 - j0) {
                             continue;
