@@ -111,13 +111,7 @@ pub fn run(args: &LinesArgs) -> DiagResult {
         pct(within2)
     );
     // The planes they propose.
-    let input = crate::hypotheses::HypothesesInput {
-        positions: &scene.cloud.positions,
-        normals: &s.oriented.normals,
-        confidence: &s.oriented.confidence,
-        axes: &s.axes,
-        scale: s.scale,
-    };
+    let input = s.input(scene);
     let planes = crate::hypotheses::line_plane_hypotheses(
         &input,
         &set.lines,

@@ -28,13 +28,7 @@ pub fn run(args: &VotesArgs) -> DiagResult {
     let scene = &ws.scene;
     let images = ws.images()?;
     let s = sparse_stages(scene, &cfg)?;
-    let input = crate::hypotheses::HypothesesInput {
-        positions: &scene.cloud.positions,
-        normals: &s.oriented.normals,
-        confidence: &s.oriented.confidence,
-        axes: &s.axes,
-        scale: s.scale,
-    };
+    let input = s.input(scene);
     let (extra, votes) = crate::hypotheses::sweep_hypotheses(
         scene,
         &images,

@@ -246,7 +246,11 @@ mod tests {
         }
     }
 
-    fn run(lines: &[Line3], existing: &[PlaneHypothesis]) -> Vec<PlaneHypothesis> {
+    fn run_with(
+        lines: &[Line3],
+        existing: &[PlaneHypothesis],
+        cfg: &HypothesesConfig,
+    ) -> Result<Vec<PlaneHypothesis>, HypothesesError> {
         let axes = axes();
         let input = HypothesesInput {
             positions: &[],
@@ -255,6 +259,10 @@ mod tests {
             axes: &axes,
             scale: 0.01,
         };
+        line_plane_hypotheses(&input, lines, existing, cfg)
+    }
+
+    fn run(lines: &[Line3], existing: &[PlaneHypothesis]) -> Vec<PlaneHypothesis> {
         let cfg = HypothesesConfig {
             lines: LinePlanesConfig {
                 enabled: true,
@@ -262,7 +270,7 @@ mod tests {
             },
             ..HypothesesConfig::default()
         };
-        line_plane_hypotheses(&input, lines, existing, &cfg).unwrap()
+        run_with(lines, existing, &cfg).unwrap()
     }
 
     #[test]
@@ -315,22 +323,12 @@ mod tests {
 
     #[test]
     fn disabled_or_invalid() {
-        let axes = axes();
-        let input = HypothesesInput {
-            positions: &[],
-            normals: &[],
-            confidence: &[],
-            axes: &axes,
-            scale: 0.01,
-        };
         let lines = [line(2, Vector3::zeros()), line(0, Vector3::zeros())];
         let cfg = HypothesesConfig::default();
-        assert!(line_plane_hypotheses(&input, &lines, &[], &cfg)
-            .unwrap()
-            .is_empty());
+        assert!(run_with(&lines, &[], &cfg).unwrap().is_empty());
         let mut bad = cfg.clone();
         bad.lines.enabled = true;
         bad.lines.min_lines = 1;
-        assert!(line_plane_hypotheses(&input, &lines, &[], &bad).is_err());
+        assert!(run_with(&lines, &[], &bad).is_err());
     }
 }

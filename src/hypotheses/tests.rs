@@ -225,7 +225,7 @@ fn house_with_roof_slopes_end_to_end() {
 /// support threshold): the sweep must propose x = 0, and nothing the points already give.
 #[test]
 fn sweep_proposes_the_textured_wall_the_points_miss() {
-    use crate::planemap::testutil::{cast, corner_views};
+    use crate::planemap::testutil::corner_views;
     let views = corner_views();
     let texture = |p: &Vector3<f64>, face: usize| -> f32 {
         // Random grey per 0.15 m cell of the face's two in-plane coordinates.
@@ -240,20 +240,7 @@ fn sweep_proposes_the_textured_wall_the_points_miss() {
                 .rem_euclid(1000);
         0.2 + 0.6 * h as f32 / 1000.0
     };
-    let images: Vec<ImageF32> = views
-        .iter()
-        .map(|v| {
-            let (w, h) = (v.camera.width, v.camera.height);
-            let mut img = ImageF32::filled(w, h, 1, 0.0);
-            for y in 0..h {
-                for x in 0..w {
-                    let (o, d) = v.ray(&nalgebra::Vector2::new(x as f64 + 0.5, y as f64 + 0.5));
-                    img.pixel_mut(x, y)[0] = cast(&o, &d).map_or(0.05, |(f, p)| texture(&p, f));
-                }
-            }
-            img
-        })
-        .collect();
+    let images = render_corner(&views, 1, |f, p| texture(p, f));
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let mut positions = Vec::new();
     for (face, count) in [(1usize, 150), (2, 150), (0, 3)] {
@@ -702,31 +689,10 @@ fn deterministic_across_thread_counts() {
 #[test]
 fn a_plain_wall_without_points_gets_its_plane_from_its_edges() {
     use crate::lines::{triangulate_lines, LinesConfig};
-    use crate::planemap::testutil::{cast, corner_views, FACE};
+    use crate::planemap::testutil::{corner_views, FACE};
     let views = corner_views();
     // Plain faces (grey 0.3, 0.55, 0.8), sky 0.05, 4×4 supersampling.
-    let images: Vec<ImageF32> = views
-        .iter()
-        .map(|v| {
-            let (w, h) = (v.camera.width, v.camera.height);
-            let mut img = ImageF32::filled(w, h, 3, 0.0);
-            for y in 0..h {
-                for x in 0..w {
-                    let mut sum = 0.0;
-                    for s in 0..16 {
-                        let xy = nalgebra::Vector2::new(
-                            x as f64 + (s % 4) as f64 / 4.0 + 0.125,
-                            y as f64 + (s / 4) as f64 / 4.0 + 0.125,
-                        );
-                        let (o, d) = v.ray(&xy);
-                        sum += cast(&o, &d).map_or(0.05, |(f, _)| [0.3, 0.55, 0.8][f]);
-                    }
-                    img.pixel_mut(x, y).fill(sum as f32 / 16.0);
-                }
-            }
-            img
-        })
-        .collect();
+    let images = render_corner(&views, 4, |f, _| [0.3, 0.55, 0.8][f]);
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     let mut positions = Vec::new();
     let mut normals = Vec::new();
@@ -778,4 +744,37 @@ fn a_plain_wall_without_points_gets_its_plane_from_its_edges() {
     assert_eq!(wall.len(), 1, "{planes:?}");
     assert!(wall[0].plane.offset.abs() < 0.03, "{:?}", wall[0]);
     assert!(planes[0].id as usize == existing.len());
+}
+
+/// Grey images of the room corner of `planemap::testutil` seen by `views`: `shade(face,
+/// point)` on its faces, 0.05 for the sky, the mean of `grid`×`grid` rays per pixel.
+fn render_corner(
+    views: &[View],
+    grid: u32,
+    shade: impl Fn(usize, &Vector3<f64>) -> f32,
+) -> Vec<ImageF32> {
+    use crate::planemap::testutil::cast;
+    views
+        .iter()
+        .map(|v| {
+            let (w, h) = (v.camera.width, v.camera.height);
+            let mut img = ImageF32::filled(w, h, 1, 0.0);
+            let step = 1.0 / grid as f64;
+            for y in 0..h {
+                for x in 0..w {
+                    let mut sum = 0.0;
+                    for s in 0..grid * grid {
+                        let xy = nalgebra::Vector2::new(
+                            x as f64 + ((s % grid) as f64 + 0.5) * step,
+                            y as f64 + ((s / grid) as f64 + 0.5) * step,
+                        );
+                        let (o, d) = v.ray(&xy);
+                        sum += cast(&o, &d).map_or(0.05, |(f, p)| shade(f, &p));
+                    }
+                    img.pixel_mut(x, y)[0] = sum / (grid * grid) as f32;
+                }
+            }
+            img
+        })
+        .collect()
 }

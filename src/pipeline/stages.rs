@@ -94,6 +94,13 @@ pub struct SparseStages {
     pub seconds: [f64; 3],
 }
 
+impl SparseStages {
+    /// The hypothesis stages' input: `scene`'s points with these normals, axes and scale.
+    pub fn input<'a>(&'a self, scene: &'a Scene) -> HypothesesInput<'a> {
+        hyp_input(scene, &self.oriented, &self.axes, self.scale)
+    }
+}
+
 pub(super) fn hyp_input<'a>(
     scene: &'a Scene,
     oriented: &'a OrientedCloud,
