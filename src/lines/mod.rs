@@ -50,6 +50,10 @@ pub struct LinesConfig {
     /// often wrong (repeated edges): 4 raised the share within 1 % from 41–74 % to 56–100 %
     /// (docs/notes/hypotheses.md#planes-from-3d-lines).
     pub min_views: usize,
+    /// ... and at least this fraction (in [0, 1]) of the views it projects into (in front,
+    /// long enough to be tested): a wrong pair in a dense grid of parallel edges (window
+    /// mullions) lands on some edge in a few views by chance, a true line in most.
+    pub min_confirmed_fraction: f64,
     /// Two back-projection planes closer than this angle (degrees, > 0) do not triangulate.
     pub min_angle_deg: f64,
     /// A line whose position standard deviation across the views exceeds this many R
@@ -70,6 +74,7 @@ impl Default for LinesConfig {
             neighbours: 6,
             match_tolerance_px: 1.5,
             min_views: 4,
+            min_confirmed_fraction: 0.7,
             min_angle_deg: 2.0,
             max_sigma_r: 2.0,
         }
@@ -111,6 +116,12 @@ impl LinesConfig {
         }
         if self.neighbours == 0 {
             return Err("lines.neighbours must be ≥ 1".into());
+        }
+        if !(0.0..=1.0).contains(&self.min_confirmed_fraction) {
+            return Err(format!(
+                "lines.min_confirmed_fraction = {} must be in [0, 1]",
+                self.min_confirmed_fraction
+            ));
         }
         if self.min_views < 2 {
             return Err("lines.min_views must be ≥ 2".into());

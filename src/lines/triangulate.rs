@@ -416,10 +416,14 @@ pub fn lines_from_segments(
                             (scene.views[v].camera.fx() / (SEGMENT_SIGMA_PX * z)).powi(2)
                         };
                         let mut rows = vec![(ni, ci, weight(i, zi)), (nj, cj, weight(j, zj))];
+                        // Views where the line projects long enough to be tested.
+                        let mut tested = 2usize;
                         for &m in neighbours.iter().filter(|&&m| m != j) {
-                            let Some(Some((r, om))) =
-                                confirm(scene, m, &obs[m], &seg, cfg, min_len)
-                            else {
+                            let Some(found) = confirm(scene, m, &obs[m], &seg, cfg, min_len) else {
+                                continue;
+                            };
+                            tested += 1;
+                            let Some((r, om)) = found else {
                                 continue;
                             };
                             let om = &obs[m][om];
@@ -433,7 +437,9 @@ pub fn lines_from_segments(
                             residual += r;
                             rows.push((nm, cm, weight(m, z)));
                         }
-                        if seen.len() < cfg.min_views {
+                        if seen.len() < cfg.min_views
+                            || (seen.len() as f64) < cfg.min_confirmed_fraction * tested as f64
+                        {
                             continue;
                         }
                         let Some((q, cov)) = solve_lines(&rows) else {
