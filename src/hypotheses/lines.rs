@@ -21,7 +21,9 @@ use crate::lines::Line3;
 #[serde(default)]
 pub struct LinePlanesConfig {
     /// Detect and triangulate 3D lines and propose the planes they span (needs the
-    /// images).
+    /// images). On: interior-0 (development) 54.2 → 78.3 % within 1 %, the 13 scenes' mean
+    /// unchanged (no scene moved by more than 0.1), the test split interior-1000 75.9 → 76.8
+    /// and no test scene lower (docs/notes/hypotheses.md#planes-from-3d-lines).
     pub enabled: bool,
     /// A line votes for a normal d_m when d_m is within this angle (degrees, in (0, 45)) of
     /// orthogonal to the line.
@@ -39,7 +41,7 @@ pub struct LinePlanesConfig {
 impl Default for LinePlanesConfig {
     fn default() -> Self {
         LinePlanesConfig {
-            enabled: false,
+            enabled: true,
             orthogonal_tolerance_deg: 3.0,
             min_lines: 2,
             min_spread_r: 20.0,
@@ -324,7 +326,13 @@ mod tests {
     #[test]
     fn disabled_or_invalid() {
         let lines = [line(2, Vector3::zeros()), line(0, Vector3::zeros())];
-        let cfg = HypothesesConfig::default();
+        let mut cfg = HypothesesConfig::default();
+        assert_eq!(
+            run_with(&lines, &[], &cfg).unwrap().len(),
+            1,
+            "on by default"
+        );
+        cfg.lines.enabled = false;
         assert!(run_with(&lines, &[], &cfg).unwrap().is_empty());
         let mut bad = cfg.clone();
         bad.lines.enabled = true;

@@ -720,6 +720,7 @@ fn a_plain_wall_without_points_gets_its_plane_from_its_edges() {
         scale: 0.06,
     };
     let mut cfg = HypothesesConfig::default();
+    cfg.lines.enabled = false;
     let existing = plane_hypotheses(&input, &cfg).unwrap();
     assert!(existing.iter().all(|h| h.axis != Some(0)), "{existing:?}");
     // Three views see the wall: a line needs all three.
