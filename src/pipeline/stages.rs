@@ -40,8 +40,6 @@ pub struct Prepared {
     /// How many of `hypotheses` (the last ones before the creases') come from 3D lines
     /// ([`crate::hypotheses::line_plane_hypotheses`]); offered as the sweep's are.
     pub line_hypotheses: usize,
-    /// The segments and 3D lines, when `hypotheses.lines.enabled`.
-    pub lines: Option<crate::lines::LineSet>,
     /// How many of the point hypotheses (the last ones, just before the sweep's) are free
     /// planes ([`crate::hypotheses::free_plane_hypotheses`]).
     pub free_hypotheses: usize,
@@ -253,7 +251,6 @@ pub fn prepare_with_progress(
         ));
     }
     let mut num_lines = 0;
-    let mut lines = None;
     if let (true, Some(imgs)) = (cfg.hypotheses.lines.enabled, &images) {
         let t = Instant::now();
         let set = crate::lines::triangulate_lines(scene, imgs, &axes.directions, scale, &cfg.lines);
@@ -275,7 +272,6 @@ pub fn prepare_with_progress(
             set.lines.len(),
             t.elapsed().as_secs_f64()
         ));
-        lines = Some(set);
     }
     bar.inc(1);
     if hypotheses.is_empty() {
@@ -316,7 +312,6 @@ pub fn prepare_with_progress(
         hypotheses,
         sweep_hypotheses: num_sweep,
         line_hypotheses: num_lines,
-        lines,
         free_hypotheses,
         crease_views: Vec::new(),
         images,
