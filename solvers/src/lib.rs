@@ -55,6 +55,7 @@ pub mod maxflow;
 mod moves;
 pub mod mrf;
 pub mod npy;
+pub mod pyramid;
 mod swap;
 
 pub use cost::Cost;
@@ -62,3 +63,4 @@ pub use expansion::{ExpansionConfig, LabelOrder};
 pub use maxflow::{Connectivity, GraphBuilder, MaxFlow};
 pub use moves::{CycleStats, Solution};
 pub use mrf::{DataCost, Energy, Mrf, MrfError, Smoothness};
+pub use pyramid::{CoarseToFine, PyramidStats};

@@ -154,6 +154,9 @@ pub enum MrfError {
     /// The problem has no labels.
     #[error("a labelling problem needs at least one label")]
     NoLabels,
+    /// A solver option is out of range.
+    #[error("invalid solver option: {0}")]
+    BadOption(&'static str),
 }
 
 /// Default number of warm-start sweeps of α-expansion (see [`Mrf::with_warm_start`]).
