@@ -26,6 +26,25 @@ pub struct SolverConfig {
     /// below 0.1 % of the smallest useful cost. The solver's capacities are 32-bit: above
     /// 10⁶ a pixel's summed costs (tens of units) would saturate them.
     pub cost_scale: f64,
+    /// Coarse-to-fine levels of the α-expansion solve (0 = one solve at full resolution):
+    /// each level solves a 2× coarser grid first and refines its labelling at the finer
+    /// resolution only in a band around its label changes
+    /// ([`planemap_solvers::pyramid`]). Off: 1 makes the real sets' runs 0.58× as long
+    /// with held-out accuracy within 0.2 points, but Herz-Jesu-P8's paving loses its
+    /// horizontal plane in half of its pixels and neighbouring views agree 0.8–1.5 points
+    /// less.
+    pub coarse_levels: usize,
+    /// Half-width of the refinement band around a coarse labelling's label changes, in
+    /// pixels of the finer level, ≥ 1.
+    pub coarse_band: usize,
+    /// A coarser level is used only if it keeps at least this many pixels: small images
+    /// are solved at full resolution, where a 2×2 block is a large share of a thin
+    /// structure.
+    pub coarse_min_pixels: usize,
+    /// After each level's band refinement, one α-expansion cycle over every label on the
+    /// whole level: whole regions may still change label, and regions the coarser level
+    /// lost may come back.
+    pub coarse_polish: bool,
 }
 
 /// The largest `solver.cost_scale`: costs of tens of units per pixel then stay far below the
@@ -37,6 +56,10 @@ impl Default for SolverConfig {
         SolverConfig {
             max_cycles: 10,
             cost_scale: 1000.0,
+            coarse_levels: 0,
+            coarse_band: 2,
+            coarse_min_pixels: 65536,
+            coarse_polish: true,
         }
     }
 }
@@ -134,6 +157,13 @@ impl Config {
                 "solver.cost_scale = {scale:e} must be in (0, {MAX_COST_SCALE}] (integer cost \
                  units per unit of cost; larger ones overflow the solver's 32-bit capacities)"
             )));
+        }
+        if self.solver.coarse_band == 0 {
+            return Err(PipelineError::Config(
+                "solver.coarse_band must be ≥ 1 (pixels of refinement around a coarse label \
+                 change)"
+                    .into(),
+            ));
         }
         let tolerance_ok =
             self.fusion.depth_tolerance.is_finite() && self.fusion.depth_tolerance > 0.0;

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use planemap_solvers::{DataCost, ExpansionConfig, LabelOrder, Mrf, Smoothness};
+use planemap_solvers::{CoarseToFine, DataCost, ExpansionConfig, LabelOrder, Mrf, Smoothness};
 
 use super::{Config, PipelineError, Prepared};
 use crate::classify::PlanarityMap;
@@ -246,15 +246,27 @@ fn label_planes(
             .with_feasible_sites(x.nonplanar_label(), &x.evidence.feasible_sites())
             .map_err(solver_err)?;
     }
-    let solution = mrf
-        .expansion(
+    let pyramid = CoarseToFine {
+        levels: cfg.solver.coarse_levels,
+        band: cfg.solver.coarse_band,
+        min_sites: cfg.solver.coarse_min_pixels,
+        polish: cfg.solver.coarse_polish,
+    };
+    let (solution, levels) = mrf
+        .expansion_coarse_to_fine(
             &ExpansionConfig {
                 max_cycles: cfg.solver.max_cycles,
                 order: LabelOrder::Fixed,
             },
+            &pyramid,
             Some(&initial),
         )
         .map_err(solver_err)?;
+    tracing::debug!(
+        "{}: solved coarse-to-fine (pixels, relabelled, labels per level) {:?}",
+        view.name,
+        levels.levels
+    );
     let t_solve = t.elapsed().as_secs_f64();
     let labels = solution.labels;
     let (w, h) = (energy.width as usize, energy.height as usize);
