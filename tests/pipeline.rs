@@ -25,6 +25,23 @@ fn tiny_demo(dir: &Path) -> Scene {
         .unwrap()
 }
 
+/// The run's planemaps scored against the workspace's ground truth.
+fn score(
+    ws: &Path,
+    scene: &Scene,
+    prepared: &pipeline::Prepared,
+    views: &[pipeline::ViewPlanemap],
+) -> planemap::eval::EvalReport {
+    evaluate(
+        &ws.join("gt"),
+        &scene.undistorted(),
+        &prepared.hypotheses,
+        views,
+        &EvalConfig::default(),
+    )
+    .unwrap()
+}
+
 #[test]
 fn demo_scene_is_reconstructed_within_tolerance() {
     let tmp = tempfile::tempdir().unwrap();
@@ -57,14 +74,7 @@ fn demo_scene_is_reconstructed_within_tolerance() {
             v.initial_energy
         );
     }
-    let report = evaluate(
-        &ws.join("gt"),
-        &scene.undistorted(),
-        &prepared.hypotheses,
-        &views,
-        &EvalConfig::default(),
-    )
-    .unwrap();
+    let report = score(&ws, &scene, &prepared, &views);
     // Measured 88.0% / 92.0% at this size (the full-size demo and the scenes are in README).
     assert!(
         report.total.depth_accuracy() >= 0.80,
@@ -169,19 +179,8 @@ fn the_coarse_to_fine_solve_reaches_the_flat_solves_energy_and_accuracy() {
     assert!(sum_c <= sum_f * 1.01, "{sum_c} vs flat {sum_f}");
     // The coarse level was used: the solves differ.
     assert!(sum_c != sum_f, "the coarse-to-fine solve was not used");
-    let report = evaluate(
-        &ws.join("gt"),
-        &scene.undistorted(),
-        &prepared.hypotheses,
-        &views,
-        &EvalConfig::default(),
-    )
-    .unwrap();
-    assert!(
-        report.total.depth_accuracy() >= 0.80,
-        "depth within 1%: {:.3}",
-        report.total.depth_accuracy()
-    );
+    let depth = score(&ws, &scene, &prepared, &views).total.depth_accuracy();
+    assert!(depth >= 0.80, "depth within 1%: {depth:.3}");
 }
 
 fn files_under(dir: &Path) -> Vec<PathBuf> {

@@ -1,8 +1,11 @@
 //! Criterion benchmarks: BK max-flow on a synthetic segmentation grid (grid layout vs CSR
-//! layout) and α-expansion on a noisy piecewise-constant labelling grid.
+//! layout), α-expansion on a noisy piecewise-constant labelling grid, and the flat against
+//! the coarse-to-fine solve at 640×480.
 use criterion::{criterion_group, criterion_main, Criterion};
 use planemap_solvers::maxflow::{GraphBuilder, GridMaxFlow, Topology};
-use planemap_solvers::{Connectivity, DataCost, ExpansionConfig, MaxFlow, Mrf, Smoothness};
+use planemap_solvers::{
+    CoarseToFine, Connectivity, DataCost, ExpansionConfig, MaxFlow, Mrf, Smoothness,
+};
 
 struct Rng(u64);
 impl Rng {
@@ -110,12 +113,13 @@ fn bench_maxflow(c: &mut Criterion) {
         .num_arcs();
 }
 
-fn bench_expansion(c: &mut Criterion) {
-    let (w, h, l) = (160, 120, 16);
-    let mut rng = Rng(2);
-    let data: Vec<i32> = (0..w * h)
+/// Data costs of a noisy labelling of `block`-pixel squares (label `(bx + per_row · by) mod
+/// l`), 10 % of the pixels observing a random label; truncated-linear in the label distance.
+fn blocks(w: usize, h: usize, l: usize, block: usize, per_row: usize, seed: u64) -> Vec<i32> {
+    let mut rng = Rng(seed);
+    (0..w * h)
         .flat_map(|p| {
-            let truth = ((p % w) / 40 + 4 * ((p / w) / 40)) as i64 % l as i64;
+            let truth = ((p % w) / block + per_row * ((p / w) / block)) as i64 % l as i64;
             let obs = if rng.below(10) == 0 {
                 rng.below(l as u64) as i64
             } else {
@@ -123,7 +127,12 @@ fn bench_expansion(c: &mut Criterion) {
             };
             (0..l as i64).map(move |k| (10 * (k - obs).abs().min(4)) as i32)
         })
-        .collect();
+        .collect()
+}
+
+fn bench_expansion(c: &mut Criterion) {
+    let (w, h, l) = (160, 120, 16);
+    let data = blocks(w, h, l, 40, 4, 2);
     let mut g = c.benchmark_group("expansion_160x120_L16");
     g.sample_size(10);
     for (name, smooth) in [("potts", 0), ("truncated_linear", 1)] {
@@ -150,5 +159,60 @@ fn bench_expansion(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_maxflow, bench_expansion);
+/// Flat α-expansion against the coarse-to-fine solve (one coarser level, band 2, with and
+/// without the polishing cycle) on the same 640×480 problem: blocks of 80 pixels, 16
+/// labels, 10 % outliers, truncated-linear smoothness.
+fn bench_coarse_to_fine(c: &mut Criterion) {
+    let (w, h, l) = (640, 480, 16);
+    let data = blocks(w, h, l, 80, 3, 3);
+    let mrf = || {
+        Mrf::grid(w, h, Connectivity::Four, l, DataCost::Dense(&data))
+            .unwrap()
+            .with_smoothness(Smoothness::TruncatedLinear {
+                scale: 3,
+                truncation: 12,
+            })
+            .unwrap()
+    };
+    let mut g = c.benchmark_group("coarse_to_fine_640x480_L16");
+    g.sample_size(10);
+    g.bench_function("flat", |b| {
+        b.iter(|| {
+            mrf()
+                .expansion(&ExpansionConfig::default(), None)
+                .unwrap()
+                .energy
+        })
+    });
+    for polish in [false, true] {
+        let name = if polish {
+            "one_level_polish"
+        } else {
+            "one_level"
+        };
+        let pyramid = CoarseToFine {
+            levels: 1,
+            band: 2,
+            min_sites: 1024,
+            polish,
+        };
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                mrf()
+                    .expansion_coarse_to_fine(&ExpansionConfig::default(), &pyramid, None)
+                    .unwrap()
+                    .0
+                    .energy
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    bench_maxflow,
+    bench_expansion,
+    bench_coarse_to_fine
+);
 criterion_main!(benches);
