@@ -161,8 +161,7 @@ fn the_coarse_to_fine_solve_reaches_the_flat_solves_energy_and_accuracy() {
         &["solver.coarse_levels=1", "solver.coarse_min_pixels=1000"],
         "pyramid",
     );
-    // Measured at this size: −0.5 … +1.5 % per view, +0.4 % over the six views (at
-    // 768×512, castle-P19 view 1: −0.02 %).
+    // Measured at this size: −1.1 … +0.2 % per view, −0.2 % over the seven views.
     let (mut sum_c, mut sum_f) = (0.0, 0.0);
     for (f, c) in flat.views.iter().zip(&pyramid.views) {
         assert!(c.energy <= c.initial_energy + 1e-6, "{}", c.name);
