@@ -245,45 +245,10 @@ impl<T: Cost> Mrf<'_, T> {
         let r = pyramid.band - 1;
         let mut rows = vec![false; n];
         for y in 0..h {
-            let row = &edge[y * w..(y + 1) * w];
-            let mut last: Option<usize> = None;
-            for (x, &e) in row.iter().enumerate() {
-                if e {
-                    last = Some(x);
-                }
-                if last.is_some_and(|l| x - l <= r) {
-                    rows[y * w + x] = true;
-                }
-            }
-            last = None;
-            for x in (0..w).rev() {
-                if row[x] {
-                    last = Some(x);
-                }
-                if last.is_some_and(|l| l - x <= r) {
-                    rows[y * w + x] = true;
-                }
-            }
+            dilate_line(&edge, &mut rows, y * w, 1, w, r);
         }
         for x in 0..w {
-            let mut last: Option<usize> = None;
-            for y in 0..h {
-                if rows[y * w + x] {
-                    last = Some(y);
-                }
-                if last.is_some_and(|l| y - l <= r) {
-                    in_band[y * w + x] = true;
-                }
-            }
-            last = None;
-            for y in (0..h).rev() {
-                if rows[y * w + x] {
-                    last = Some(y);
-                }
-                if last.is_some_and(|l| l - y <= r) {
-                    in_band[y * w + x] = true;
-                }
-            }
+            dilate_line(&rows, &mut in_band, x, w, h, r);
         }
         let band: Vec<u32> = (0..n as u32).filter(|&p| in_band[p as usize]).collect();
         let mut used = vec![false; num_labels];
@@ -295,12 +260,11 @@ impl<T: Cost> Mrf<'_, T> {
             .collect();
         stats.levels.push((n, band.len(), used.len()));
         stats.levels.extend(coarse_stats.levels);
-        let copied_energy = self.energy(&labels)?.total;
         let initial_energy = self.energy(&start)?.total;
         if band.is_empty() || used.len() < 2 {
             let copied = Solution {
+                energy: self.energy(&labels)?.total,
                 labels,
-                energy: copied_energy,
                 initial_energy,
                 cycles: Vec::new(),
                 converged: true,
@@ -432,6 +396,30 @@ impl<T: Cost> Mrf<'_, T> {
             Pairwise::Potts(l) => *l,
             Pairwise::Table(t) => t[a as usize * self.num_labels + b as usize],
             Pairwise::Fn(f) => f(p, q, a, b),
+        }
+    }
+}
+
+/// Marks in `dst` every site of the line `start + i · stride` (`i < len`) within `r` sites
+/// of a site marked in `src`: one pass each way, remembering the last mark.
+fn dilate_line(src: &[bool], dst: &mut [bool], start: usize, stride: usize, len: usize, r: usize) {
+    let at = |i: usize| start + i * stride;
+    let mut last: Option<usize> = None;
+    for i in 0..len {
+        if src[at(i)] {
+            last = Some(i);
+        }
+        if last.is_some_and(|l| i - l <= r) {
+            dst[at(i)] = true;
+        }
+    }
+    last = None;
+    for i in (0..len).rev() {
+        if src[at(i)] {
+            last = Some(i);
+        }
+        if last.is_some_and(|l| l - i <= r) {
+            dst[at(i)] = true;
         }
     }
 }
